@@ -1,0 +1,159 @@
+//! `drape run`: advance a scene without a window and report what happened.
+//!
+//! The CLI adds the progress bar and argument parsing; everything else is here
+//! so that tests can run it in-process.
+
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use crate::sim::{SimError, Simulation, Strain};
+
+/// The figures `drape run` prints and writes to `--out`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunSummary {
+    /// Particles in the mesh.
+    pub particles: usize,
+    /// Bars the solver relaxes (bars between two fixed particles excluded).
+    pub bars: usize,
+    /// Steps taken by this run.
+    pub steps: u64,
+    /// Relaxation passes per step.
+    pub relaxations: u32,
+    /// The solver used.
+    pub solver: &'static str,
+    /// Wall-clock seconds per step, stepping only (output excluded).
+    pub seconds_per_step: f64,
+    /// Bar projections per wall-clock second.
+    pub projections_per_second: f64,
+    /// Simulated seconds at the end.
+    pub time: f64,
+    /// Strain at the end.
+    pub strain: Strain,
+    /// Kinetic energy of the free particles at the end, joules.
+    pub kinetic_energy: f64,
+}
+
+impl std::fmt::Display for RunSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "particles            {}", self.particles)?;
+        writeln!(f, "bars                 {}", self.bars)?;
+        writeln!(f, "steps                {} ({:.3} s simulated)", self.steps, self.time)?;
+        writeln!(f, "relaxations          {} ({} solver)", self.relaxations, self.solver)?;
+        writeln!(f, "wall time per step   {}", format_duration(self.seconds_per_step))?;
+        writeln!(f, "bar projections/s    {:.3e}", self.projections_per_second)?;
+        writeln!(f, "max strain           {:.4e}", self.strain.max)?;
+        writeln!(f, "RMS strain           {:.4e}", self.strain.rms)?;
+        write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)
+    }
+}
+
+/// Seconds as `12.3 µs`, `4.56 ms` or `1.23 s`.
+pub fn format_duration(seconds: f64) -> String {
+    if seconds < 1e-3 {
+        format!("{:.2} µs", seconds * 1e6)
+    } else if seconds < 1.0 {
+        format!("{:.3} ms", seconds * 1e3)
+    } else {
+        format!("{seconds:.3} s")
+    }
+}
+
+/// What can stop a run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The simulation blew up.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The trace could not be written.
+    #[error("cannot write the trace: {0}")]
+    Trace(#[source] std::io::Error),
+}
+
+/// Advances `sim` by `steps` steps.
+///
+/// With `trace = Some((writer, every))`, writes the CSV header, the initial
+/// state and then every `every`-th step's positions (see [`write_trace_rows`]).
+/// `progress` is called with the number of steps done so far, about a hundred
+/// times over the run.
+pub fn run(
+    sim: &mut Simulation,
+    steps: u64,
+    mut trace: Option<(&mut dyn Write, u64)>,
+    mut progress: impl FnMut(u64),
+) -> Result<RunSummary, RunError> {
+    let chunk = match &trace {
+        Some((_, every)) => (*every).max(1),
+        None => (steps / 100).max(1),
+    };
+    if let Some((w, _)) = trace.as_mut() {
+        writeln!(w, "step,time,particle,x,y,z").map_err(RunError::Trace)?;
+        write_trace_rows(*w, sim).map_err(RunError::Trace)?;
+    }
+    let mut stepping = Duration::ZERO;
+    let mut done = 0;
+    while done < steps {
+        let n = chunk.min(steps - done);
+        let start = Instant::now();
+        sim.advance(n)?;
+        stepping += start.elapsed();
+        done += n;
+        if let Some((w, every)) = trace.as_mut()
+            && done % (*every).max(1) == 0
+        {
+            write_trace_rows(*w, sim).map_err(RunError::Trace)?;
+        }
+        progress(done);
+    }
+    let seconds = stepping.as_secs_f64();
+    let projections = sim.projections_per_step() as f64 * steps as f64;
+    Ok(RunSummary {
+        particles: sim.positions().len(),
+        bars: sim.bars().len(),
+        steps,
+        relaxations: sim.params().relaxations,
+        solver: sim.solver().name(),
+        seconds_per_step: if steps > 0 { seconds / steps as f64 } else { 0.0 },
+        projections_per_second: if seconds > 0.0 { projections / seconds } else { 0.0 },
+        time: sim.time(),
+        strain: sim.strain(),
+        kinetic_energy: sim.kinetic_energy(),
+    })
+}
+
+/// One CSV row per particle: `step,time,particle,x,y,z`.
+pub fn write_trace_rows(w: &mut dyn Write, sim: &Simulation) -> std::io::Result<()> {
+    let (step, time) = (sim.steps(), sim.time());
+    for (i, p) in sim.positions().iter().enumerate() {
+        writeln!(w, "{step},{time},{i},{},{},{}", p.x, p.y, p.z)?;
+    }
+    Ok(())
+}
+
+/// The JSON that `drape run --out` writes.
+#[derive(Serialize)]
+pub struct StateFile<'a> {
+    /// The scene's name.
+    pub scene: &'a str,
+    /// Simulated seconds.
+    pub time: f64,
+    /// Steps since the start.
+    pub steps: u64,
+    /// One `[x, y, z]` per particle, in scene order, metres.
+    pub positions: Vec<[f32; 3]>,
+    /// The run's figures.
+    pub metrics: &'a RunSummary,
+}
+
+/// Writes the state and summary as JSON.
+pub fn write_state_json(w: impl Write, scene: &str, sim: &Simulation, summary: &RunSummary) -> std::io::Result<()> {
+    let state = StateFile {
+        scene,
+        time: sim.time(),
+        steps: sim.steps(),
+        positions: sim.positions().iter().map(|p| p.to_array()).collect(),
+        metrics: summary,
+    };
+    serde_json::to_writer_pretty(w, &state).map_err(std::io::Error::other)
+}

@@ -1,0 +1,378 @@
+//! The TOML schema of a scene file and its translation into sim types.
+
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::{CameraHint, Origin, Scene, SceneErrorKind, bundled};
+use crate::sim::{ClothMesh, Grid, GridPlane, Pins, SolverKind, SolverParams, Wind};
+
+/// A scene file as written. See the README for every key.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Title; defaults to the file name.
+    pub name: Option<String>,
+    /// What the scene shows.
+    #[serde(default)]
+    pub description: String,
+    /// `[solver]`.
+    #[serde(default)]
+    pub solver: SolverTable,
+    /// `[wind]`.
+    #[serde(default)]
+    pub wind: WindTable,
+    /// `[grid]`.
+    pub grid: Option<GridTable>,
+    /// `[mesh]`.
+    pub mesh: Option<MeshTable>,
+    /// `[obj]`.
+    pub obj: Option<ObjTable>,
+    /// `[camera]`.
+    #[serde(default)]
+    pub camera: CameraTable,
+}
+
+/// `[solver]`: every key optional, defaulting to the seed's value.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverTable {
+    /// Relaxation passes per step.
+    pub relaxations: u32,
+    /// δ.
+    pub damping: f32,
+    /// h, seconds.
+    pub dt: f32,
+    /// m, kilograms.
+    pub mass: f32,
+    /// f_g, newtons.
+    pub gravity: [f32; 3],
+    /// `reference` (more solvers come with later versions).
+    pub method: SolverKind,
+}
+
+impl Default for SolverTable {
+    fn default() -> Self {
+        let p = SolverParams::default();
+        Self {
+            relaxations: p.relaxations,
+            damping: p.damping,
+            dt: p.dt,
+            mass: p.mass,
+            gravity: p.gravity.to_array(),
+            method: SolverKind::default(),
+        }
+    }
+}
+
+/// The `model` key of `[wind]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WindModel {
+    /// No wind.
+    #[default]
+    None,
+    /// The seed's equation 4.
+    Seed,
+    /// A constant force.
+    Constant,
+}
+
+/// `[wind]`.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindTable {
+    /// Which model.
+    #[serde(default)]
+    pub model: WindModel,
+    /// For `seed`: multiplies equation 4 (default 1).
+    pub scale: Option<f32>,
+    /// For `constant`: the force, newtons.
+    pub vector: Option<[f32; 3]>,
+}
+
+/// `pinned` in `[grid]`: a named pattern or a list of `[column, row]`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum PinsValue {
+    /// `"top-row"`, `"top-corners"`, `"left-column"` or `"none"`.
+    Pattern(String),
+    /// `[[column, row], ...]`.
+    Cells(Vec<[u32; 2]>),
+}
+
+/// `[grid]`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridTable {
+    /// Particles per row.
+    pub columns: u32,
+    /// Rows.
+    pub rows: u32,
+    /// Neighbour distance, metres.
+    pub spacing: f32,
+    /// Fixed particles (default `top-row`).
+    pub pinned: Option<PinsValue>,
+    /// `vertical` (default) or `horizontal`.
+    #[serde(default)]
+    pub plane: GridPlane,
+    /// Position of particle (0, 0).
+    pub origin: Option<[f32; 3]>,
+    /// Diagonal bars (default true).
+    pub shear: Option<bool>,
+    /// Two-away bend bars (default true).
+    pub bend: Option<bool>,
+}
+
+/// `[mesh]`: the seed's generic form.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshTable {
+    /// Particle positions, metres.
+    pub positions: Vec<[f32; 3]>,
+    /// Indices of the fixed particles.
+    #[serde(default)]
+    pub fixed: Vec<u64>,
+    /// `adjacency[i]` lists the particles that `i` is barred to.
+    pub adjacency: Vec<Vec<u64>>,
+    /// Initial velocities v₀, m/s, one per particle.
+    pub velocities: Option<Vec<[f32; 3]>>,
+}
+
+/// `[obj]`: a triangle mesh from a Wavefront OBJ file.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjTable {
+    /// The OBJ file, relative to the scene file.
+    pub path: String,
+    /// Indices of the vertices to fix (0-based, in file order).
+    #[serde(default)]
+    pub pinned: Vec<u64>,
+    /// Multiplies every coordinate (default 1).
+    pub scale: Option<f32>,
+    /// Added to every coordinate after scaling, metres (default 0).
+    pub offset: Option<[f32; 3]>,
+}
+
+/// `[camera]`.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraTable {
+    /// Degrees about the vertical axis.
+    pub yaw: Option<f32>,
+    /// Degrees of elevation.
+    pub pitch: Option<f32>,
+    /// Metres from the target.
+    pub distance: Option<f32>,
+    /// The point looked at.
+    pub target: Option<[f32; 3]>,
+}
+
+fn invalid(key: &str, message: impl Into<String>) -> SceneErrorKind {
+    SceneErrorKind::Invalid { key: key.to_string(), message: message.into() }
+}
+
+fn vec3(v: [f32; 3]) -> Vec3 {
+    Vec3::from_array(v)
+}
+
+/// Parses `text` and builds the scene it describes.
+pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind> {
+    let file: SceneFile = toml::from_str(text).map_err(|e| SceneErrorKind::Syntax(e.to_string()))?;
+    let params = solver_params(&file)?;
+    let sources = [file.grid.is_some(), file.mesh.is_some(), file.obj.is_some()];
+    let mesh = match (&file.grid, &file.mesh, &file.obj) {
+        (Some(g), None, None) => grid_mesh(g)?,
+        (None, Some(m), None) => adjacency_mesh(m)?,
+        (None, None, Some(o)) => obj_mesh(o, origin)?,
+        _ => {
+            let found = sources.iter().filter(|&&s| s).count();
+            return Err(invalid(
+                "scene",
+                format!("found {found} of [grid], [mesh] and [obj]; a scene needs exactly one"),
+            ));
+        }
+    };
+    let camera = camera_hint(&file.camera)?;
+    let name = file.name.clone().unwrap_or_else(|| match origin {
+        Origin::File(p) => p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        Origin::Bundled(n) => (*n).to_string(),
+        Origin::Text => "untitled".to_string(),
+    });
+    Ok(Scene {
+        name,
+        description: file.description.clone(),
+        source: origin.display(),
+        mesh: Arc::new(mesh),
+        params,
+        solver: file.solver.method,
+        camera,
+    })
+}
+
+fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
+    let s = &file.solver;
+    let w = &file.wind;
+    let wind = match w.model {
+        WindModel::None => {
+            if w.scale.is_some() || w.vector.is_some() {
+                return Err(invalid("wind", "scale and vector need model = \"seed\" or \"constant\""));
+            }
+            Wind::None
+        }
+        WindModel::Seed => {
+            if w.vector.is_some() {
+                return Err(invalid("wind.vector", "applies to model = \"constant\"; the seed's wind takes scale"));
+            }
+            Wind::Seed { scale: w.scale.unwrap_or(1.0) }
+        }
+        WindModel::Constant => {
+            if w.scale.is_some() {
+                return Err(invalid("wind.scale", "applies to model = \"seed\"; a constant wind takes vector"));
+            }
+            let Some(v) = w.vector else {
+                return Err(invalid("wind.vector", "model = \"constant\" needs vector = [x, y, z] in newtons"));
+            };
+            Wind::Constant { force: vec3(v) }
+        }
+    };
+    let params = SolverParams {
+        relaxations: s.relaxations,
+        damping: s.damping,
+        dt: s.dt,
+        mass: s.mass,
+        gravity: vec3(s.gravity),
+        wind,
+    };
+    params.validate().map_err(|e| {
+        let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };
+        invalid(&key, format!("{} is not allowed: {}", e.value, e.allowed))
+    })?;
+    Ok(params)
+}
+
+fn grid_mesh(g: &GridTable) -> Result<ClothMesh, SceneErrorKind> {
+    let pins = match &g.pinned {
+        None => Pins::TopRow,
+        Some(PinsValue::Cells(cells)) => Pins::Cells(cells.clone()),
+        Some(PinsValue::Pattern(p)) => match p.as_str() {
+            "top-row" => Pins::TopRow,
+            "top-corners" => Pins::TopCorners,
+            "left-column" => Pins::LeftColumn,
+            "none" => Pins::None,
+            other => {
+                return Err(invalid(
+                    "grid.pinned",
+                    format!(
+                        "\"{other}\" is not a pin pattern; use \"top-row\", \"top-corners\", \"left-column\", \
+                         \"none\" or a list of [column, row]"
+                    ),
+                ));
+            }
+        },
+    };
+    let grid = Grid {
+        columns: g.columns,
+        rows: g.rows,
+        spacing: g.spacing,
+        plane: g.plane,
+        origin: g.origin.map(vec3),
+        pins,
+        shear: g.shear.unwrap_or(true),
+        bend: g.bend.unwrap_or(true),
+    };
+    grid.build().map_err(|error| SceneErrorKind::Mesh { table: "grid", error })
+}
+
+fn adjacency_mesh(m: &MeshTable) -> Result<ClothMesh, SceneErrorKind> {
+    let positions = m.positions.iter().copied().map(vec3).collect();
+    let velocities = m.velocities.as_ref().map(|v| v.iter().copied().map(vec3).collect());
+    ClothMesh::from_adjacency(positions, &m.fixed, &m.adjacency, velocities)
+        .map_err(|error| SceneErrorKind::Mesh { table: "mesh", error })
+}
+
+/// Largest OBJ file read, bytes: a bound on memory for untrusted input.
+pub const MAX_OBJ_BYTES: u64 = 256 << 20;
+
+fn obj_mesh(o: &ObjTable, origin: &Origin) -> Result<ClothMesh, SceneErrorKind> {
+    let (display, text) = match origin {
+        Origin::Bundled(_) => {
+            let Some(text) = bundled::mesh(&o.path) else {
+                return Err(SceneErrorKind::Obj { path: o.path.clone(), message: "not a bundled mesh".into() });
+            };
+            (o.path.clone(), text.to_string())
+        }
+        Origin::File(scene_path) => read_obj(&scene_path.parent().unwrap_or(Path::new(".")).join(&o.path))?,
+        Origin::Text => read_obj(&PathBuf::from(&o.path))?,
+    };
+    let obj_error = |message: String| SceneErrorKind::Obj { path: display.clone(), message };
+    let (positions, triangles) = parse_obj(&text).map_err(obj_error)?;
+    let scale = o.scale.unwrap_or(1.0);
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(invalid("obj.scale", format!("{scale} is not allowed: a positive finite number")));
+    }
+    let offset = vec3(o.offset.unwrap_or([0.0; 3]));
+    let positions = positions.into_iter().map(|p| p * scale + offset).collect();
+    ClothMesh::from_triangles(positions, triangles, &o.pinned, None)
+        .map_err(|error| SceneErrorKind::Mesh { table: "obj", error })
+}
+
+fn read_obj(path: &Path) -> Result<(String, String), SceneErrorKind> {
+    let display = path.display().to_string();
+    let err = |message: String| SceneErrorKind::Obj { path: display.clone(), message };
+    let size = std::fs::metadata(path).map_err(|e| err(e.to_string()))?.len();
+    if size > MAX_OBJ_BYTES {
+        return Err(err(format!("{size} bytes is too large; at most {MAX_OBJ_BYTES} are read")));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
+    Ok((display, text))
+}
+
+/// Reads the vertices and faces of OBJ text (faces triangulated as fans; all
+/// objects merged; normals, texture coordinates and materials ignored).
+pub fn parse_obj(text: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), String> {
+    let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    let mut reader = BufReader::new(text.as_bytes());
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
+        .map_err(|e| e.to_string())?;
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for model in &models {
+        let mesh = &model.mesh;
+        let base = positions.len();
+        if base + mesh.positions.len() / 3 > crate::sim::mesh::MAX_PARTICLES {
+            return Err(format!("more than {} vertices", crate::sim::mesh::MAX_PARTICLES));
+        }
+        positions.extend(mesh.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        for t in mesh.indices.chunks_exact(3) {
+            triangles.push([t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]);
+        }
+    }
+    if positions.is_empty() {
+        return Err("it has no vertices".to_string());
+    }
+    Ok((positions, triangles))
+}
+
+fn camera_hint(c: &CameraTable) -> Result<CameraHint, SceneErrorKind> {
+    let d = CameraHint::default();
+    let finite = |key: &str, v: f32| if v.is_finite() { Ok(v) } else { Err(invalid(key, "must be a finite number")) };
+    let yaw = finite("camera.yaw", c.yaw.unwrap_or(d.yaw_degrees))?;
+    let pitch = finite("camera.pitch", c.pitch.unwrap_or(d.pitch_degrees))?;
+    if !(-89.0..=89.0).contains(&pitch) {
+        return Err(invalid("camera.pitch", format!("{pitch} is not allowed: degrees from -89 to 89")));
+    }
+    if let Some(dist) = c.distance
+        && !(dist.is_finite() && dist > 0.0)
+    {
+        return Err(invalid("camera.distance", format!("{dist} is not allowed: a positive number of metres")));
+    }
+    let target = c.target.map(vec3);
+    if target.is_some_and(|t| !t.is_finite()) {
+        return Err(invalid("camera.target", "must be three finite numbers"));
+    }
+    Ok(CameraHint { yaw_degrees: yaw, pitch_degrees: pitch, distance: c.distance, target })
+}

@@ -1,0 +1,121 @@
+use super::*;
+use crate::sim::{BarKind, Wind};
+
+#[test]
+fn every_bundled_scene_loads() {
+    for b in BUNDLED {
+        let scene = load(b.name).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!scene.description.is_empty(), "{} has no description", b.name);
+        scene.simulation().unwrap_or_else(|e| panic!("{}: {e}", b.name));
+    }
+}
+
+#[test]
+fn seed_scene_is_the_reports_experiment() {
+    let s = load("seed").unwrap();
+    assert_eq!((s.params.relaxations, s.params.damping, s.params.dt, s.params.mass), (20, 0.02, 0.05, 0.2));
+    assert_eq!(s.params.wind, Wind::Seed { scale: 1.0 });
+    assert_eq!(s.mesh.particle_count(), 600);
+    let grid = s.mesh.grid().unwrap();
+    assert_eq!((grid.columns, grid.rows), (20, 30));
+    assert_eq!(s.mesh.fixed().iter().filter(|&&f| f).count(), 20);
+}
+
+#[test]
+fn obj_scene_has_bend_bars_and_pins() {
+    let s = load("tablecloth").unwrap();
+    assert_eq!(s.mesh.particle_count(), 1801);
+    assert_eq!(s.mesh.triangles().len(), 3456);
+    assert!(s.mesh.bars().iter().any(|b| b.kind == BarKind::Bend));
+    assert_eq!(s.mesh.fixed().iter().filter(|&&f| f).count(), 217);
+}
+
+fn err(text: &str) -> String {
+    parse(text, &Origin::Text).expect_err("should fail").to_string()
+}
+
+const GRID: &str = "[grid]\ncolumns = 3\nrows = 3\nspacing = 1.0\n";
+
+#[test]
+fn minimal_grid_scene_uses_seed_defaults() {
+    let s = parse(GRID, &Origin::Text).unwrap();
+    assert_eq!(s.params, crate::sim::SolverParams::default());
+    assert_eq!(s.mesh.particle_count(), 9);
+}
+
+#[test]
+fn errors_name_the_key_and_the_allowed_range() {
+    let e = err(&format!("[solver]\ndt = -1.0\n{GRID}"));
+    assert!(e.contains("solver.dt") && e.contains("0 < dt <= 1"), "{e}");
+    let e = err(&format!("[solver]\ndamping = 1.0\n{GRID}"));
+    assert!(e.contains("solver.damping") && e.contains("0 <= damping < 1"), "{e}");
+    let e = err(&format!("[solver]\nmass = 0.0\n{GRID}"));
+    assert!(e.contains("solver.mass"), "{e}");
+    let e = err(&format!("[solver]\nrelaxation = 3\n{GRID}"));
+    assert!(e.contains("unknown field") && e.contains("line 2"), "{e}");
+    let e = err(&format!("[solver]\ndt = nan\n{GRID}"));
+    assert!(e.contains("solver.dt"), "{e}");
+    let e = err(&format!("[wind]\nmodel = \"constant\"\n{GRID}"));
+    assert!(e.contains("wind.vector"), "{e}");
+    let e = err(&format!("[wind]\nmodel = \"seed\"\nscale = inf\n{GRID}"));
+    assert!(e.contains("wind.scale"), "{e}");
+    let e = err("[solver]\ndt = 0.1\n");
+    assert!(e.contains("exactly one"), "{e}");
+    let e = err(&format!("{GRID}[obj]\npath = \"x.obj\"\n"));
+    assert!(e.contains("exactly one"), "{e}");
+    let e = err("[grid]\ncolumns = 0\nrows = 3\nspacing = 1.0\n");
+    assert!(e.contains("[grid]") && e.contains("at least 1"), "{e}");
+    let e = err("[grid]\ncolumns = 100000\nrows = 100000\nspacing = 1.0\n");
+    assert!(e.contains("too many"), "{e}");
+    let e = err("[grid]\ncolumns = 3\nrows = 3\nspacing = 1.0\npinned = \"top\"\n");
+    assert!(e.contains("grid.pinned"), "{e}");
+    let e = err("[grid]\ncolumns = 3\nrows = 3\nspacing = 1.0\npinned = [[3, 0]]\n");
+    assert!(e.contains("outside the grid"), "{e}");
+}
+
+#[test]
+fn mesh_table_errors() {
+    let mesh = |body: &str| err(&format!("[mesh]\n{body}\n"));
+    let e = mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[2],[]]");
+    assert!(e.contains("[mesh]") && e.contains("particle 2") && e.contains("0 to 1"), "{e}");
+    let e = mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[0],[]]");
+    assert!(e.contains("itself"), "{e}");
+    let e = mesh("positions = [[0.0,0.0,0.0],[0.0,0.0,0.0]]\nadjacency = [[1],[]]");
+    assert!(e.contains("zero length"), "{e}");
+    let e = mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[1, 1],[]]");
+    assert!(e.contains("twice"), "{e}");
+    let e = mesh("positions = []\nadjacency = []");
+    assert!(e.contains("no particles"), "{e}");
+    let e = mesh("positions = [[0.0,nan,0.0]]\nadjacency = [[]]");
+    assert!(e.contains("finite"), "{e}");
+    let e = mesh("positions = [[0.0,0.0,0.0]]\nadjacency = [[-1]]");
+    assert!(e.contains("line"), "{e}");
+}
+
+#[test]
+fn obj_errors() {
+    let e = err("[obj]\npath = \"/definitely/not/here.obj\"\n");
+    assert!(e.contains("[obj] path /definitely/not/here.obj"), "{e}");
+    let e = parse("[obj]\npath = \"../meshes/nothing.obj\"\n", &Origin::Bundled("x")).unwrap_err().to_string();
+    assert!(e.contains("not a bundled mesh"), "{e}");
+}
+
+#[test]
+fn obj_text_parses_faces_as_triangles() {
+    let (p, t) = file::parse_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    assert_eq!(p.len(), 4);
+    assert_eq!(t.len(), 2);
+    assert!(file::parse_obj("# nothing\n").is_err());
+    // A face naming vertices that do not exist is an error, from tobj or from the mesh check.
+    let e = err("[obj]\npath = \"x\"\n");
+    assert!(e.contains("[obj]"), "{e}");
+    let bad = file::parse_obj("v 0 0 0\nf 1 2 3\n")
+        .and_then(|(p, t)| crate::sim::ClothMesh::from_triangles(p, t, &[], None).map_err(|e| e.to_string()));
+    assert!(bad.is_err(), "{bad:?}");
+}
+
+#[test]
+fn unknown_scene_lists_the_bundled_ones() {
+    let e = load("no-such-scene").unwrap_err().to_string();
+    assert!(e.contains("seed") && e.contains("flag"), "{e}");
+}

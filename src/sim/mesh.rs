@@ -1,0 +1,758 @@
+//! The cloth's topology: particles, bars and (for drawing) triangles.
+//!
+//! A [`ClothMesh`] is what the seed calls "a list of particles containing their
+//! position and a Boolean variable indicating if they are free or fixed" plus
+//! "a graph, in the form of adjacency list, representing the bars". It is
+//! immutable once built and shared by every solver; each bar's rest length is
+//! the distance between its particles as given.
+//!
+//! Three builders cover the three ways a cloth is described:
+//! - [`Grid`] — the seed's rectangular mesh (Figures 1 and 2): a bar to every
+//!   immediate neighbour, horizontal, vertical and both diagonals, and a bend
+//!   bar to the particles two away horizontally and vertically;
+//! - [`ClothMesh::from_adjacency`] — the seed's generic form;
+//! - [`ClothMesh::from_triangles`] — a triangle mesh (an OBJ file): a bar on
+//!   every edge and a bend bar across every interior edge, joining the two
+//!   vertices opposite it.
+//!
+//! Every builder validates what it is given and reports the first problem as
+//! a [`MeshError`]; no input makes it panic.
+
+use std::collections::{HashMap, HashSet};
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// Most particles a mesh may have (4096², about 0.5 GiB of solver state).
+pub const MAX_PARTICLES: usize = 1 << 24;
+/// Most bars a mesh may have.
+pub const MAX_BARS: usize = 1 << 27;
+/// Largest accepted magnitude of a coordinate, in metres.
+pub const MAX_COORDINATE: f32 = 1e6;
+
+/// What a bar stands for; solvers may treat the kinds differently (for
+/// example a different compliance) and the viewer draws them separately.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BarKind {
+    /// A bar between immediate neighbours: grid edges and diagonals, the
+    /// edges of a triangle mesh, every bar of an adjacency list.
+    Structural,
+    /// A bar to a particle two away, which resists folding (the dashed bars of
+    /// the seed's Figure 2, or the bar across an interior triangle edge).
+    Bend,
+}
+
+/// A bar: two particles that the relaxation keeps at `rest_length`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bar {
+    /// First particle (index into the mesh's particles).
+    pub a: u32,
+    /// Second particle; never equal to `a`.
+    pub b: u32,
+    /// The length the bar is relaxed towards, in metres; always > 0.
+    pub rest_length: f32,
+    /// Structural or bend.
+    pub kind: BarKind,
+}
+
+/// Columns and rows of a mesh built by [`Grid`]; particle `(column, row)` has
+/// index `row * columns + column`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GridShape {
+    /// Particles per row, ≥ 1.
+    pub columns: u32,
+    /// Rows of particles, ≥ 1.
+    pub rows: u32,
+}
+
+impl GridShape {
+    /// Index of the particle at `(column, row)`.
+    pub fn index(&self, column: u32, row: u32) -> u32 {
+        row * self.columns + column
+    }
+}
+
+/// Why a mesh could not be built.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    /// The mesh has no particle.
+    #[error("the mesh has no particles; give at least one")]
+    Empty,
+    /// More particles than [`MAX_PARTICLES`] (checked before allocating).
+    #[error("{count} particles is too many: at most {MAX_PARTICLES} are allowed")]
+    TooManyParticles {
+        /// The requested count (may exceed what fits in memory).
+        count: u128,
+    },
+    /// More bars than [`MAX_BARS`].
+    #[error("{count} bars is too many: at most {MAX_BARS} are allowed")]
+    TooManyBars {
+        /// The requested count.
+        count: u128,
+    },
+    /// A coordinate is NaN, infinite or beyond ±[`MAX_COORDINATE`].
+    #[error("{what} of particle {index} is {value}: coordinates must be finite and within ±1e6 m")]
+    BadCoordinate {
+        /// `position` or `velocity`.
+        what: &'static str,
+        /// The particle.
+        index: usize,
+        /// The value, formatted.
+        value: String,
+    },
+    /// A per-particle list has the wrong length.
+    #[error("{what} has {got} entries but the mesh has {expected} particles; give one per particle")]
+    WrongLength {
+        /// Which list.
+        what: &'static str,
+        /// Its length.
+        got: usize,
+        /// The number of particles.
+        expected: usize,
+    },
+    /// An index names a particle that does not exist.
+    #[error("{what} refers to particle {index}, but the particles are numbered 0 to {last}")]
+    IndexOutOfRange {
+        /// Where the index was found.
+        what: String,
+        /// The bad index.
+        index: u64,
+        /// The largest valid index.
+        last: usize,
+    },
+    /// A bar joins a particle to itself.
+    #[error("a bar joins particle {particle} to itself; a bar needs two different particles")]
+    SelfBar {
+        /// The particle.
+        particle: u32,
+    },
+    /// A bar's particles are at the same place, so it has no rest length.
+    #[error("the bar between particles {a} and {b} has zero length; bars need particles at distinct positions")]
+    ZeroLengthBar {
+        /// First particle.
+        a: u32,
+        /// Second particle.
+        b: u32,
+    },
+    /// The same bar is given twice.
+    #[error("the bar between particles {a} and {b} is given twice; list each bar once per end at most")]
+    DuplicateBar {
+        /// First particle.
+        a: u32,
+        /// Second particle.
+        b: u32,
+    },
+    /// A triangle repeats a vertex.
+    #[error("triangle {index} repeats a vertex ({vertices:?}); a triangle needs three different vertices")]
+    DegenerateTriangle {
+        /// The triangle's position in the list.
+        index: usize,
+        /// Its vertices.
+        vertices: [u32; 3],
+    },
+    /// A grid dimension or spacing is unusable.
+    #[error("grid {what}")]
+    BadGrid {
+        /// What is wrong and what is allowed.
+        what: String,
+    },
+}
+
+/// The particles, bars and triangles of one cloth. See the module docs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClothMesh {
+    positions: Vec<Vec3>,
+    velocities: Vec<Vec3>,
+    fixed: Vec<bool>,
+    bars: Vec<Bar>,
+    triangles: Vec<[u32; 3]>,
+    grid: Option<GridShape>,
+}
+
+/// The raw parts of a mesh, checked by [`ClothMesh::new`].
+#[derive(Clone, Debug, Default)]
+pub struct MeshParts {
+    /// x₀ of every particle, metres.
+    pub positions: Vec<Vec3>,
+    /// v₀ of every particle (equation 2), m/s; empty means all zero.
+    pub velocities: Vec<Vec3>,
+    /// Which particles are fixed; empty means none.
+    pub fixed: Vec<bool>,
+    /// Bars as particle pairs, in the order the relaxation visits them.
+    pub bars: Vec<(u32, u32, BarKind)>,
+    /// Triangles for drawing (may be empty: the viewer then draws bars).
+    pub triangles: Vec<[u32; 3]>,
+    /// Set when the particles form a grid in row-major order.
+    pub grid: Option<GridShape>,
+}
+
+fn check_coordinate(what: &'static str, index: usize, v: Vec3) -> Result<(), MeshError> {
+    if v.is_finite() && v.abs().max_element() <= MAX_COORDINATE {
+        Ok(())
+    } else {
+        Err(MeshError::BadCoordinate { what, index, value: format!("[{}, {}, {}]", v.x, v.y, v.z) })
+    }
+}
+
+fn check_index(what: impl FnOnce() -> String, index: u64, count: usize) -> Result<u32, MeshError> {
+    if index < count as u64 {
+        // count <= MAX_PARTICLES < u32::MAX, so the index fits.
+        Ok(index as u32)
+    } else {
+        Err(MeshError::IndexOutOfRange { what: what(), index, last: count - 1 })
+    }
+}
+
+/// Replaces −0.0 by +0.0 so that adding a zero correction never changes a
+/// fixed particle's bits (−0 + +0 = +0 in IEEE 754).
+fn canonical_zero(v: Vec3) -> Vec3 {
+    v + Vec3::ZERO
+}
+
+impl ClothMesh {
+    /// Checks and assembles a mesh from its parts; computes every bar's rest
+    /// length from the positions.
+    pub fn new(parts: MeshParts) -> Result<Self, MeshError> {
+        let MeshParts { positions, mut velocities, mut fixed, bars, triangles, grid } = parts;
+        let n = positions.len();
+        if n == 0 {
+            return Err(MeshError::Empty);
+        }
+        if n > MAX_PARTICLES {
+            return Err(MeshError::TooManyParticles { count: n as u128 });
+        }
+        if bars.len() > MAX_BARS {
+            return Err(MeshError::TooManyBars { count: bars.len() as u128 });
+        }
+        for (i, &p) in positions.iter().enumerate() {
+            check_coordinate("position", i, p)?;
+        }
+        if velocities.is_empty() {
+            velocities = vec![Vec3::ZERO; n];
+        } else if velocities.len() != n {
+            return Err(MeshError::WrongLength { what: "velocities", got: velocities.len(), expected: n });
+        }
+        for (i, &v) in velocities.iter().enumerate() {
+            check_coordinate("velocity", i, v)?;
+        }
+        if fixed.is_empty() {
+            fixed = vec![false; n];
+        } else if fixed.len() != n {
+            return Err(MeshError::WrongLength { what: "fixed flags", got: fixed.len(), expected: n });
+        }
+        let positions: Vec<Vec3> = positions.into_iter().map(canonical_zero).collect();
+
+        let mut seen = HashSet::with_capacity(bars.len());
+        let mut checked = Vec::with_capacity(bars.len());
+        for (i, &(a, b, kind)) in bars.iter().enumerate() {
+            let a = check_index(|| format!("bar {i}"), a.into(), n)?;
+            let b = check_index(|| format!("bar {i}"), b.into(), n)?;
+            if a == b {
+                return Err(MeshError::SelfBar { particle: a });
+            }
+            if !seen.insert((a.min(b), a.max(b))) {
+                return Err(MeshError::DuplicateBar { a, b });
+            }
+            let rest_length = positions[a as usize].distance(positions[b as usize]);
+            if !(rest_length.is_normal() && rest_length > 0.0) {
+                return Err(MeshError::ZeroLengthBar { a, b });
+            }
+            checked.push(Bar { a, b, rest_length, kind });
+        }
+        for (i, t) in triangles.iter().enumerate() {
+            for &v in t {
+                check_index(|| format!("triangle {i}"), v.into(), n)?;
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return Err(MeshError::DegenerateTriangle { index: i, vertices: *t });
+            }
+        }
+        if let Some(g) = grid {
+            debug_assert_eq!(g.columns as usize * g.rows as usize, n);
+        }
+        Ok(Self { positions, velocities, fixed, bars: checked, triangles, grid })
+    }
+
+    /// The seed's generic form: particle positions, the indices of the fixed
+    /// ones, and for every particle the list of particles it is barred to.
+    ///
+    /// A bar may be listed from one end or from both (`adjacency[i]` holds `j`
+    /// and `adjacency[j]` holds `i`); it is one bar either way, created when it
+    /// is first met scanning particles in order. Listing `j` twice in the same
+    /// `adjacency[i]` is a [`MeshError::DuplicateBar`].
+    pub fn from_adjacency(
+        positions: Vec<Vec3>,
+        fixed: &[u64],
+        adjacency: &[Vec<u64>],
+        velocities: Option<Vec<Vec3>>,
+    ) -> Result<Self, MeshError> {
+        let n = positions.len();
+        if n == 0 {
+            return Err(MeshError::Empty);
+        }
+        if adjacency.len() != n {
+            return Err(MeshError::WrongLength { what: "adjacency", got: adjacency.len(), expected: n });
+        }
+        let mut fixed_flags = vec![false; n];
+        for (k, &i) in fixed.iter().enumerate() {
+            let i = check_index(|| format!("fixed[{k}]"), i, n)?;
+            fixed_flags[i as usize] = true;
+        }
+        let mut bars = Vec::new();
+        let mut seen: HashSet<(u32, u32)> = HashSet::new();
+        for (i, list) in adjacency.iter().enumerate() {
+            let mut in_this_list = HashSet::with_capacity(list.len());
+            for &j in list {
+                let j = check_index(|| format!("adjacency[{i}]"), j, n)?;
+                let i = i as u32;
+                if i == j {
+                    return Err(MeshError::SelfBar { particle: i });
+                }
+                if !in_this_list.insert(j) {
+                    return Err(MeshError::DuplicateBar { a: i, b: j });
+                }
+                if seen.insert((i.min(j), i.max(j))) {
+                    bars.push((i, j, BarKind::Structural));
+                }
+            }
+        }
+        Self::new(MeshParts {
+            positions,
+            velocities: velocities.unwrap_or_default(),
+            fixed: fixed_flags,
+            bars,
+            triangles: Vec::new(),
+            grid: None,
+        })
+    }
+
+    /// A triangle mesh: a structural bar on every edge and a bend bar across
+    /// every edge shared by exactly two triangles, between the two vertices
+    /// opposite it. Bend bars that would duplicate another bar or have zero
+    /// length (a mesh folded flat onto itself) are left out.
+    pub fn from_triangles(
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        fixed: &[u64],
+        velocities: Option<Vec<Vec3>>,
+    ) -> Result<Self, MeshError> {
+        let n = positions.len();
+        if n == 0 {
+            return Err(MeshError::Empty);
+        }
+        let mut fixed_flags = vec![false; n];
+        for (k, &i) in fixed.iter().enumerate() {
+            let i = check_index(|| format!("pinned[{k}]"), i, n)?;
+            fixed_flags[i as usize] = true;
+        }
+        for (i, t) in triangles.iter().enumerate() {
+            for &v in t {
+                check_index(|| format!("triangle {i}"), v.into(), n)?;
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return Err(MeshError::DegenerateTriangle { index: i, vertices: *t });
+            }
+        }
+        // Edge → the vertices opposite it, in the order triangles list them.
+        let mut edges: Vec<(u32, u32)> = Vec::new();
+        let mut opposite: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        for t in &triangles {
+            for k in 0..3 {
+                let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                let key = (a.min(b), a.max(b));
+                let entry = opposite.entry(key).or_default();
+                if entry.is_empty() {
+                    edges.push((a, b));
+                }
+                entry.push(c);
+            }
+        }
+        let mut seen: HashSet<(u32, u32)> = edges.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+        let mut bars: Vec<(u32, u32, BarKind)> = edges.iter().map(|&(a, b)| (a, b, BarKind::Structural)).collect();
+        for &(a, b) in &edges {
+            if let [c, d] = opposite[&(a.min(b), a.max(b))][..] {
+                let key = (c.min(d), c.max(d));
+                let far_enough = positions[c as usize].distance(positions[d as usize]) > 0.0;
+                if c != d && far_enough && seen.insert(key) {
+                    bars.push((c, d, BarKind::Bend));
+                }
+            }
+        }
+        Self::new(MeshParts {
+            positions,
+            velocities: velocities.unwrap_or_default(),
+            fixed: fixed_flags,
+            bars,
+            triangles,
+            grid: None,
+        })
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.positions.len()
+    }
+    /// Initial positions x₀, metres, in scene order.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+    /// Initial velocities v₀ (equation 2), m/s.
+    pub fn velocities(&self) -> &[Vec3] {
+        &self.velocities
+    }
+    /// Which particles the scene fixes.
+    pub fn fixed(&self) -> &[bool] {
+        &self.fixed
+    }
+    /// Every bar of the topology, in creation order (including bars between two
+    /// fixed particles, which the solvers leave out while both stay fixed).
+    pub fn bars(&self) -> &[Bar] {
+        &self.bars
+    }
+    /// Triangles for drawing; empty for a mesh given only as bars.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+    /// The grid shape when the mesh was built by [`Grid`].
+    pub fn grid(&self) -> Option<GridShape> {
+        self.grid
+    }
+    /// The axis-aligned box around the initial positions: (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        bounds(&self.positions)
+    }
+}
+
+/// The axis-aligned box (min, max) around `points`; zero-size at the origin
+/// when there are none.
+pub fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    let mut it = points.iter().copied();
+    let Some(first) = it.next() else {
+        return (Vec3::ZERO, Vec3::ZERO);
+    };
+    it.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p)))
+}
+
+/// In which plane a [`Grid`] lies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GridPlane {
+    /// Hanging in the x–y plane: columns along +x, rows going down −y, row 0
+    /// at the top (the seed's figures).
+    #[default]
+    Vertical,
+    /// Lying in the x–z plane: columns along +x, rows along +z.
+    Horizontal,
+}
+
+/// Which particles of a [`Grid`] are fixed.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Pins {
+    /// None: the cloth falls freely.
+    None,
+    /// Every particle of row 0 (the seed's Figure 1).
+    #[default]
+    TopRow,
+    /// The two ends of row 0.
+    TopCorners,
+    /// Every particle of column 0 (a flag on its pole).
+    LeftColumn,
+    /// An explicit list of `[column, row]` cells.
+    Cells(Vec<[u32; 2]>),
+}
+
+/// The seed's rectangular mesh (Figures 1 and 2).
+///
+/// Bars are created particle by particle in row-major order; for particle
+/// `(c, r)`: right `(c+1, r)`, down `(c, r+1)`, down-right `(c+1, r+1)`,
+/// down-left `(c−1, r+1)` (structural), then two to the right `(c+2, r)` and
+/// two down `(c, r+2)` (bend). A `C × R` grid thus has
+/// `(C−1)R + C(R−1) + 2(C−1)(R−1)` structural and `(C−2)R + C(R−2)` bend bars.
+///
+/// ```
+/// use drape::sim::{Grid, Pins};
+/// let mesh = Grid { columns: 20, rows: 30, spacing: 0.5, pins: Pins::TopRow, ..Grid::default() }
+///     .build()
+///     .unwrap();
+/// assert_eq!(mesh.particle_count(), 600);
+/// assert_eq!(mesh.bars().len(), 570 + 580 + 1102 + 540 + 560);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    /// Particles per row, ≥ 1. Default 20 (the seed's).
+    pub columns: u32,
+    /// Rows, ≥ 1. Default 30 (the seed's).
+    pub rows: u32,
+    /// Distance between neighbouring particles, metres, > 0. Default 0.5.
+    pub spacing: f32,
+    /// Vertical (the seed's hanging cloth) or horizontal. Default vertical.
+    pub plane: GridPlane,
+    /// Position of particle (0, 0). Default: centred on x = 0 (and z = 0 for
+    /// a horizontal grid), with a vertical grid's bottom row at y = 0.
+    pub origin: Option<Vec3>,
+    /// Fixed particles. Default the top row.
+    pub pins: Pins,
+    /// Whether to add the diagonal bars. Default true.
+    pub shear: bool,
+    /// Whether to add the two-away bend bars. Default true.
+    pub bend: bool,
+}
+
+impl Default for Grid {
+    fn default() -> Self {
+        Self {
+            columns: 20,
+            rows: 30,
+            spacing: 0.5,
+            plane: GridPlane::Vertical,
+            origin: None,
+            pins: Pins::TopRow,
+            shear: true,
+            bend: true,
+        }
+    }
+}
+
+impl Grid {
+    /// Builds the mesh; errors on a zero dimension, a spacing that is not a
+    /// positive finite number, a pinned cell outside the grid, or a grid too
+    /// large for memory (checked before anything is allocated).
+    pub fn build(&self) -> Result<ClothMesh, MeshError> {
+        let (cols, rows) = (self.columns, self.rows);
+        if cols == 0 || rows == 0 {
+            return Err(MeshError::BadGrid {
+                what: format!("is {cols} × {rows}: columns and rows must each be at least 1"),
+            });
+        }
+        let count = u128::from(cols) * u128::from(rows);
+        if count > MAX_PARTICLES as u128 {
+            return Err(MeshError::TooManyParticles { count });
+        }
+        if !(self.spacing.is_finite() && self.spacing > 0.0) {
+            return Err(MeshError::BadGrid {
+                what: format!("spacing is {}: it must be a positive number of metres", self.spacing),
+            });
+        }
+        let extent = self.spacing * (cols.max(rows) - 1) as f32;
+        if extent > MAX_COORDINATE {
+            return Err(MeshError::BadGrid { what: format!("is {extent} m across: at most 1e6 m is allowed") });
+        }
+        let shape = GridShape { columns: cols, rows };
+        let s = self.spacing;
+        let width = s * (cols - 1) as f32;
+        let height = s * (rows - 1) as f32;
+        let (origin, right, down) = match self.plane {
+            GridPlane::Vertical => (self.origin.unwrap_or(Vec3::new(-0.5 * width, height, 0.0)), Vec3::X, Vec3::NEG_Y),
+            GridPlane::Horizontal => {
+                (self.origin.unwrap_or(Vec3::new(-0.5 * width, 0.0, -0.5 * height)), Vec3::X, Vec3::Z)
+            }
+        };
+        let mut positions = Vec::with_capacity(count as usize);
+        for r in 0..rows {
+            for c in 0..cols {
+                positions.push(origin + right * (c as f32 * s) + down * (r as f32 * s));
+            }
+        }
+        let mut fixed = vec![false; count as usize];
+        let mut pin = |c: u32, r: u32| fixed[shape.index(c, r) as usize] = true;
+        match &self.pins {
+            Pins::None => {}
+            Pins::TopRow => (0..cols).for_each(|c| pin(c, 0)),
+            Pins::TopCorners => {
+                pin(0, 0);
+                pin(cols - 1, 0);
+            }
+            Pins::LeftColumn => (0..rows).for_each(|r| pin(0, r)),
+            Pins::Cells(cells) => {
+                for &[c, r] in cells {
+                    if c >= cols || r >= rows {
+                        return Err(MeshError::BadGrid {
+                            what: format!(
+                                "pin [{c}, {r}] is outside the grid: columns are 0 to {}, rows 0 to {}",
+                                cols - 1,
+                                rows - 1
+                            ),
+                        });
+                    }
+                    pin(c, r);
+                }
+            }
+        }
+        let mut bars = Vec::new();
+        let idx = |c: u32, r: u32| shape.index(c, r);
+        for r in 0..rows {
+            for c in 0..cols {
+                let i = idx(c, r);
+                if c + 1 < cols {
+                    bars.push((i, idx(c + 1, r), BarKind::Structural));
+                }
+                if r + 1 < rows {
+                    bars.push((i, idx(c, r + 1), BarKind::Structural));
+                    if self.shear && c + 1 < cols {
+                        bars.push((i, idx(c + 1, r + 1), BarKind::Structural));
+                    }
+                    if self.shear && c >= 1 {
+                        bars.push((i, idx(c - 1, r + 1), BarKind::Structural));
+                    }
+                }
+                if self.bend && c + 2 < cols {
+                    bars.push((i, idx(c + 2, r), BarKind::Bend));
+                }
+                if self.bend && r + 2 < rows {
+                    bars.push((i, idx(c, r + 2), BarKind::Bend));
+                }
+            }
+        }
+        let mut triangles = Vec::with_capacity(2 * (cols as usize - 1) * (rows as usize).saturating_sub(1));
+        for r in 0..rows.saturating_sub(1) {
+            for c in 0..cols.saturating_sub(1) {
+                let (i, right, below, diag) = (idx(c, r), idx(c + 1, r), idx(c, r + 1), idx(c + 1, r + 1));
+                // Counter-clockwise seen from +z (vertical) or +y (horizontal).
+                triangles.push([i, below, right]);
+                triangles.push([right, below, diag]);
+            }
+        }
+        ClothMesh::new(MeshParts { positions, velocities: Vec::new(), fixed, bars, triangles, grid: Some(shape) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bar_count(c: u32, r: u32) -> usize {
+        let (c, r) = (c as usize, r as usize);
+        (c - 1) * r + c * (r - 1) + 2 * (c - 1) * (r - 1) + c.saturating_sub(2) * r + c * r.saturating_sub(2)
+    }
+
+    #[test]
+    fn grid_bar_counts_follow_the_formula() {
+        for (c, r) in [(2, 2), (3, 5), (20, 30), (7, 1), (1, 7)] {
+            let mesh = Grid { columns: c, rows: r, ..Grid::default() }.build().unwrap();
+            let c1 = c.max(1) as usize;
+            let expected = if c == 1 || r == 1 {
+                // A single row or column: a chain with bend bars.
+                let n = (c * r) as usize;
+                (n - 1) + n.saturating_sub(2)
+            } else {
+                bar_count(c, r)
+            };
+            assert_eq!(mesh.bars().len(), expected, "{c}×{r} (c1 {c1})");
+            assert_eq!(mesh.triangles().len(), 2 * (c as usize - 1) * (r as usize - 1));
+        }
+    }
+
+    #[test]
+    fn grid_rest_lengths_are_spacing_diagonal_and_double() {
+        let s = 0.25;
+        let mesh = Grid { columns: 4, rows: 4, spacing: s, ..Grid::default() }.build().unwrap();
+        for bar in mesh.bars() {
+            let l = bar.rest_length;
+            let ok = match bar.kind {
+                BarKind::Structural => (l - s).abs() < 1e-6 || (l - s * 2f32.sqrt()).abs() < 1e-6,
+                BarKind::Bend => (l - 2.0 * s).abs() < 1e-6,
+            };
+            assert!(ok, "{bar:?}");
+        }
+    }
+
+    #[test]
+    fn pins_select_the_documented_cells() {
+        let count = |pins| {
+            let m = Grid { columns: 5, rows: 4, pins, ..Grid::default() }.build().unwrap();
+            m.fixed().iter().filter(|&&f| f).count()
+        };
+        assert_eq!(count(Pins::None), 0);
+        assert_eq!(count(Pins::TopRow), 5);
+        assert_eq!(count(Pins::TopCorners), 2);
+        assert_eq!(count(Pins::LeftColumn), 4);
+        assert_eq!(count(Pins::Cells(vec![[4, 3], [0, 0]])), 2);
+        let err = Grid { columns: 5, rows: 4, pins: Pins::Cells(vec![[5, 0]]), ..Grid::default() }.build();
+        assert!(matches!(err, Err(MeshError::BadGrid { .. })), "{err:?}");
+    }
+
+    #[test]
+    fn vertical_grid_hangs_from_row_zero() {
+        let mesh = Grid { columns: 3, rows: 3, spacing: 1.0, ..Grid::default() }.build().unwrap();
+        let p = mesh.positions();
+        assert_eq!(p[0], Vec3::new(-1.0, 2.0, 0.0));
+        assert_eq!(p[8], Vec3::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn oversized_grid_is_rejected_before_allocation() {
+        let err = Grid { columns: u32::MAX, rows: u32::MAX, ..Grid::default() }.build();
+        assert!(matches!(err, Err(MeshError::TooManyParticles { .. })), "{err:?}");
+    }
+
+    #[test]
+    fn adjacency_listed_from_both_ends_is_one_bar() {
+        let pos = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = ClothMesh::from_adjacency(pos, &[0], &[vec![1, 2], vec![0], vec![0]], None).unwrap();
+        assert_eq!(mesh.bars().len(), 2);
+        assert_eq!((mesh.bars()[0].a, mesh.bars()[0].b), (0, 1));
+        assert_eq!(mesh.fixed(), &[true, false, false]);
+    }
+
+    #[test]
+    fn adjacency_errors() {
+        let pos = || vec![Vec3::ZERO, Vec3::X];
+        let e = |r: Result<ClothMesh, MeshError>| r.unwrap_err();
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(pos(), &[], &[vec![5], vec![]], None)),
+            MeshError::IndexOutOfRange { index: 5, .. }
+        ));
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(pos(), &[], &[vec![0], vec![]], None)),
+            MeshError::SelfBar { particle: 0 }
+        ));
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(pos(), &[], &[vec![1, 1], vec![]], None)),
+            MeshError::DuplicateBar { .. }
+        ));
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(pos(), &[7], &[vec![1], vec![]], None)),
+            MeshError::IndexOutOfRange { .. }
+        ));
+        assert!(matches!(e(ClothMesh::from_adjacency(pos(), &[], &[vec![1]], None)), MeshError::WrongLength { .. }));
+        assert!(matches!(e(ClothMesh::from_adjacency(vec![], &[], &[], None)), MeshError::Empty));
+        let same = vec![Vec3::ONE, Vec3::ONE];
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(same, &[], &[vec![1], vec![]], None)),
+            MeshError::ZeroLengthBar { .. }
+        ));
+        let nan = vec![Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0)];
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(nan, &[], &[vec![1], vec![]], None)),
+            MeshError::BadCoordinate { .. }
+        ));
+        let v = Some(vec![Vec3::ZERO]);
+        assert!(matches!(
+            e(ClothMesh::from_adjacency(pos(), &[], &[vec![1], vec![]], v)),
+            MeshError::WrongLength { .. }
+        ));
+    }
+
+    #[test]
+    fn triangles_give_edge_bars_and_one_bend_bar_per_interior_edge() {
+        // Two triangles sharing the edge 1–2: a unit square split on its diagonal.
+        let pos = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)];
+        let mesh = ClothMesh::from_triangles(pos, vec![[0, 1, 2], [2, 1, 3]], &[], None).unwrap();
+        let structural = mesh.bars().iter().filter(|b| b.kind == BarKind::Structural).count();
+        let bend: Vec<_> = mesh.bars().iter().filter(|b| b.kind == BarKind::Bend).collect();
+        assert_eq!(structural, 5);
+        assert_eq!(bend.len(), 1);
+        assert_eq!((bend[0].a.min(bend[0].b), bend[0].a.max(bend[0].b)), (0, 3));
+        assert!((bend[0].rest_length - 2f32.sqrt()).abs() < 1e-6);
+        let err = ClothMesh::from_triangles(vec![Vec3::ZERO, Vec3::X], vec![[0, 1, 1]], &[], None);
+        assert!(matches!(err, Err(MeshError::IndexOutOfRange { .. }) | Err(MeshError::DegenerateTriangle { .. })));
+    }
+
+    #[test]
+    fn negative_zero_is_canonicalised() {
+        let mesh = ClothMesh::from_adjacency(vec![Vec3::new(-0.0, 0.0, 0.0), Vec3::X], &[0], &[vec![1], vec![]], None)
+            .unwrap();
+        assert_eq!(mesh.positions()[0].x.to_bits(), 0.0f32.to_bits());
+    }
+}

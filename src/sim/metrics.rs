@@ -1,0 +1,96 @@
+//! How far the cloth is from what the relaxation aims at, and how much it moves.
+//!
+//! ```text
+//! strain of a bar      ε = | |x_b − x_a| − L | / L          (L its rest length)
+//! max strain           max ε over the bars
+//! RMS strain           sqrt( Σ ε² / bars )
+//! velocity             v = (x_i − x_{i−1}) / h              (what equation 1 carries)
+//! kinetic energy       E_k = Σ ½ m |v|²                      over free particles
+//! potential energy     E_p = −Σ f_g · x                      over free particles
+//! ```
+//!
+//! All are O(particles + bars) and cheap enough for every displayed frame.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::mesh::Bar;
+
+/// Maximum and RMS relative strain over a set of bars.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Strain {
+    /// Largest `|len − rest| / rest` over the bars; 0 when there are none.
+    pub max: f32,
+    /// Root mean square of `|len − rest| / rest`; 0 when there are none.
+    pub rms: f32,
+}
+
+/// The strain of `bars` at `positions`. Sums in f64 so that the RMS of a
+/// million bars is exact to f32 precision.
+pub fn strain(positions: &[Vec3], bars: &[Bar]) -> Strain {
+    if bars.is_empty() {
+        return Strain::default();
+    }
+    let mut max = 0.0f32;
+    let mut sum_sq = 0.0f64;
+    for bar in bars {
+        let len = positions[bar.a as usize].distance(positions[bar.b as usize]);
+        let e = (len - bar.rest_length).abs() / bar.rest_length;
+        max = max.max(e);
+        sum_sq += f64::from(e) * f64::from(e);
+    }
+    Strain { max, rms: (sum_sq / bars.len() as f64).sqrt() as f32 }
+}
+
+/// Kinetic energy `Σ ½ m |(x − x_prev)/h|²` over the particles not fixed, joules.
+pub fn kinetic_energy(positions: &[Vec3], previous: &[Vec3], fixed: &[bool], mass: f32, dt: f32) -> f64 {
+    let sum: f64 = positions
+        .iter()
+        .zip(previous)
+        .zip(fixed)
+        .filter(|&(_, &f)| !f)
+        .map(|((&x, &p), _)| f64::from((x - p).length_squared()))
+        .sum();
+    0.5 * f64::from(mass) * sum / (f64::from(dt) * f64::from(dt))
+}
+
+/// Potential energy of a constant force field `−Σ f · x` over the particles not
+/// fixed, joules (gravity's, with `f` the force on one particle).
+pub fn potential_energy(positions: &[Vec3], fixed: &[bool], force: Vec3) -> f64 {
+    positions.iter().zip(fixed).filter(|&(_, &f)| !f).map(|(&x, _)| -f64::from(force.dot(x))).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::mesh::BarKind;
+
+    #[test]
+    fn strain_of_a_stretched_and_a_compressed_bar() {
+        let positions = [Vec3::ZERO, Vec3::new(1.1, 0.0, 0.0), Vec3::new(1.1, 0.8, 0.0)];
+        let bars = [
+            Bar { a: 0, b: 1, rest_length: 1.0, kind: BarKind::Structural }, // 10 % long
+            Bar { a: 1, b: 2, rest_length: 1.0, kind: BarKind::Structural }, // 20 % short
+        ];
+        let s = strain(&positions, &bars);
+        assert!((s.max - 0.2).abs() < 1e-6, "{s:?}");
+        // sqrt((0.1² + 0.2²)/2) = sqrt(0.025) = 0.158114
+        assert!((s.rms - 0.158_114).abs() < 1e-5, "{s:?}");
+        assert_eq!(strain(&positions, &[]), Strain::default());
+    }
+
+    #[test]
+    fn kinetic_energy_skips_fixed_particles() {
+        // Particle 0 moved 0.1 m in h = 0.05 s → v = 2 m/s → ½·0.2·4 = 0.4 J.
+        let x = [Vec3::new(0.1, 0.0, 0.0), Vec3::new(5.0, 0.0, 0.0)];
+        let p = [Vec3::ZERO, Vec3::ZERO];
+        let e = kinetic_energy(&x, &p, &[false, true], 0.2, 0.05);
+        assert!((e - 0.4).abs() < 1e-6, "{e}");
+    }
+
+    #[test]
+    fn potential_energy_of_gravity_is_weight_times_height() {
+        let e = potential_energy(&[Vec3::new(0.0, 2.0, 0.0)], &[false], Vec3::new(0.0, -9.8, 0.0));
+        assert!((e - 19.6).abs() < 1e-5, "{e}");
+    }
+}

@@ -1,0 +1,179 @@
+//! Solver parameters: the seed's h, δ, m, the relaxation count, and the forces.
+//!
+//! Every field documents its unit, its allowed range and its default. The
+//! ranges are checked by [`SolverParams::validate`], which every way of
+//! building or changing a simulation goes through: a scene file, the CLI,
+//! the viewer's panel and library users.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::wind::Wind;
+
+/// Largest accepted number of relaxation passes per step.
+pub const MAX_RELAXATIONS: u32 = 100_000;
+/// Largest accepted time step h, in seconds.
+pub const MAX_DT: f32 = 1.0;
+/// Smallest accepted particle mass m, in kilograms.
+pub const MIN_MASS: f32 = 1e-9;
+/// Largest accepted particle mass m, in kilograms.
+pub const MAX_MASS: f32 = 1e9;
+/// Largest accepted magnitude of any force component, in newtons.
+pub const MAX_FORCE: f32 = 1e9;
+
+/// How the solver spends its work on one step, and the forces it applies.
+///
+/// The defaults are the seed's values (its section 3): δ = 0.02, h = 0.05 s,
+/// m = 0.2 kg, 20 relaxations, gravity (0, −9.8, 0) N and no wind.
+///
+/// ```
+/// use drape::sim::SolverParams;
+/// let params = SolverParams { relaxations: 40, ..SolverParams::default() };
+/// assert!(params.validate().is_ok());
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SolverParams {
+    /// Relaxation passes per step: how many times every bar is projected
+    /// back to its rest length after integration (the seed's Figure 3).
+    ///
+    /// Range `0..=100_000`, default 20. More passes give stiffer, less
+    /// stretchy cloth at a cost linear in the count (the seed's Table 1);
+    /// 0 leaves the particles unconstrained.
+    pub relaxations: u32,
+    /// δ in the seed's equation 1: the share of last step's displacement
+    /// that is removed every step. Dimensionless.
+    ///
+    /// Range `0 <= δ < 1`, default 0.02. 0 is undamped; values near 1 stop
+    /// every particle almost at once.
+    pub damping: f32,
+    /// h in the seed's equations 1 and 2: the time step, in seconds.
+    ///
+    /// Range `0 < h <= 1`, default 0.05 (the seed's 20 steps per simulated
+    /// second). A particle falls h²·|f|/m further per step, so large steps
+    /// need more relaxations to hold the cloth together.
+    pub dt: f32,
+    /// m in the seed's equation 1: the mass of every particle, in kilograms.
+    ///
+    /// Range `1e-9 ..= 1e9`, default 0.2. Forces are divided by it, so with
+    /// the seed's force-valued gravity a lighter cloth falls faster.
+    pub mass: f32,
+    /// f_g in the seed's equation 3: gravity, a force in newtons applied to
+    /// every free particle (not an acceleration: the acceleration is f_g/m).
+    ///
+    /// Any finite vector with components within ±1e9, default (0, −9.8, 0).
+    pub gravity: Vec3,
+    /// f_w in the seed's equation 4: the wind, a force applied to every free
+    /// particle. Default [`Wind::None`].
+    pub wind: Wind,
+}
+
+impl Default for SolverParams {
+    fn default() -> Self {
+        Self {
+            relaxations: 20,
+            damping: 0.02,
+            dt: 0.05,
+            mass: 0.2,
+            gravity: Vec3::new(0.0, -9.8, 0.0),
+            wind: Wind::None,
+        }
+    }
+}
+
+/// A parameter outside its allowed range.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{name} = {value} is not allowed: {allowed}")]
+pub struct ParamError {
+    /// The parameter's name, as in a scene file's `[solver]` or `[wind]` table.
+    pub name: &'static str,
+    /// The rejected value, formatted.
+    pub value: String,
+    /// What the parameter accepts.
+    pub allowed: &'static str,
+}
+
+impl ParamError {
+    pub(crate) fn new(name: &'static str, value: impl std::fmt::Display, allowed: &'static str) -> Self {
+        Self { name, value: value.to_string(), allowed }
+    }
+}
+
+/// Checks a force-like vector: finite, each component within ±[`MAX_FORCE`].
+pub(crate) fn check_force(name: &'static str, v: Vec3) -> Result<(), ParamError> {
+    if v.is_finite() && v.abs().max_element() <= MAX_FORCE {
+        Ok(())
+    } else {
+        Err(ParamError::new(name, format!("[{}, {}, {}]", v.x, v.y, v.z), "finite components within ±1e9 N"))
+    }
+}
+
+impl SolverParams {
+    /// Checks every field against its documented range.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if self.relaxations > MAX_RELAXATIONS {
+            return Err(ParamError::new("relaxations", self.relaxations, "an integer from 0 to 100000"));
+        }
+        // `!(a <= x && x < b)` also rejects NaN.
+        if !(0.0..1.0).contains(&self.damping) {
+            return Err(ParamError::new("damping", self.damping, "0 <= damping < 1"));
+        }
+        if !(self.dt > 0.0 && self.dt <= MAX_DT) {
+            return Err(ParamError::new("dt", self.dt, "seconds, 0 < dt <= 1"));
+        }
+        if !(MIN_MASS..=MAX_MASS).contains(&self.mass) {
+            return Err(ParamError::new("mass", self.mass, "kilograms, 1e-9 <= mass <= 1e9"));
+        }
+        check_force("gravity", self.gravity)?;
+        self.wind.validate()
+    }
+
+    /// The displacement `h²/m · f` that a constant force `f` adds to a free
+    /// particle in one step of equation 1.
+    pub fn displacement_of(&self, force: Vec3) -> Vec3 {
+        force * (self.dt * self.dt / self.mass)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_seeds_values_and_valid() {
+        let p = SolverParams::default();
+        assert_eq!((p.relaxations, p.damping, p.dt, p.mass), (20, 0.02, 0.05, 0.2));
+        assert_eq!(p.gravity, Vec3::new(0.0, -9.8, 0.0));
+        assert_eq!(p.validate(), Ok(()));
+    }
+
+    #[test]
+    fn each_out_of_range_value_names_its_parameter() {
+        let base = SolverParams::default();
+        let cases: Vec<(SolverParams, &str)> = vec![
+            (SolverParams { relaxations: MAX_RELAXATIONS + 1, ..base.clone() }, "relaxations"),
+            (SolverParams { damping: 1.0, ..base.clone() }, "damping"),
+            (SolverParams { damping: -0.1, ..base.clone() }, "damping"),
+            (SolverParams { damping: f32::NAN, ..base.clone() }, "damping"),
+            (SolverParams { dt: 0.0, ..base.clone() }, "dt"),
+            (SolverParams { dt: -1.0, ..base.clone() }, "dt"),
+            (SolverParams { dt: f32::INFINITY, ..base.clone() }, "dt"),
+            (SolverParams { dt: 1.5, ..base.clone() }, "dt"),
+            (SolverParams { mass: 0.0, ..base.clone() }, "mass"),
+            (SolverParams { mass: f32::NAN, ..base.clone() }, "mass"),
+            (SolverParams { gravity: Vec3::new(0.0, f32::NAN, 0.0), ..base.clone() }, "gravity"),
+            (SolverParams { wind: Wind::Seed { scale: f32::INFINITY }, ..base.clone() }, "wind.scale"),
+        ];
+        for (params, name) in cases {
+            let err = params.validate().expect_err(name);
+            assert_eq!(err.name, name, "{err}");
+        }
+    }
+
+    #[test]
+    fn displacement_is_h_squared_over_m_times_f() {
+        let p = SolverParams::default();
+        // 0.05² / 0.2 = 0.0125 m per newton.
+        let d = p.displacement_of(Vec3::new(0.0, -9.8, 0.0));
+        assert!((d.y - (-0.1225)).abs() < 1e-7, "{d}");
+    }
+}

@@ -1,0 +1,342 @@
+//! [`Simulation`]: a mesh, its parameters, a solver and the clock.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::mesh::{Bar, ClothMesh};
+use super::metrics::{self, Strain};
+use super::params::{ParamError, SolverParams};
+use super::reference::ReferenceSolver;
+
+/// Which solver advances the cloth. Both implement the same equations; they
+/// differ in order of work and speed (see [`super::reference`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverKind {
+    /// The seed's loops as written: scalar, bars in creation order.
+    #[default]
+    Reference,
+}
+
+impl SolverKind {
+    /// Every solver, for menus and benchmarks.
+    pub const ALL: [SolverKind; 1] = [SolverKind::Reference];
+
+    /// A short name, as accepted by the CLI and scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Reference => "reference",
+        }
+    }
+}
+
+/// What went wrong while simulating.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// A parameter outside its range.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// Positions stopped being finite numbers.
+    #[error(
+        "the simulation blew up at step {step}: particle {particle} reached a non-finite position \
+         (try a smaller dt, weaker forces, more damping or more relaxations)"
+    )]
+    Diverged {
+        /// The step (counting from 1) after which a position was not finite.
+        step: u64,
+        /// The first particle found with a non-finite coordinate.
+        particle: usize,
+    },
+    /// A particle index outside the mesh.
+    #[error("particle {index} does not exist: the mesh has {count} particles")]
+    NoSuchParticle {
+        /// The index given.
+        index: usize,
+        /// The number of particles.
+        count: usize,
+    },
+}
+
+/// The solver's own state, whichever kind it is.
+#[derive(Clone, Debug)]
+enum Engine {
+    Reference(ReferenceSolver),
+}
+
+impl Engine {
+    fn new(kind: SolverKind, positions: &[Vec3], previous: &[Vec3], fixed: &[bool], bars: &[Bar], mass: f32) -> Self {
+        let inverse_mass = fixed.iter().map(|&f| if f { 0.0 } else { 1.0 / mass }).collect();
+        match kind {
+            SolverKind::Reference => Engine::Reference(ReferenceSolver {
+                positions: positions.to_vec(),
+                previous: previous.to_vec(),
+                inverse_mass,
+                bars: bars.to_vec(),
+            }),
+        }
+    }
+
+    fn step(&mut self, params: &SolverParams, displacement: Vec3, first_velocity: Option<&[Vec3]>) {
+        match self {
+            Engine::Reference(s) => s.step(params.dt, params.damping, displacement, first_velocity, params.relaxations),
+        }
+    }
+
+    fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
+        match self {
+            Engine::Reference(s) => {
+                positions.copy_from_slice(&s.positions);
+                previous.copy_from_slice(&s.previous);
+            }
+        }
+    }
+
+    fn first_non_finite(&self) -> Option<usize> {
+        match self {
+            Engine::Reference(s) => s.positions.iter().position(|p| !p.is_finite()),
+        }
+    }
+
+    fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
+        match self {
+            Engine::Reference(s) => {
+                s.positions[index] = position;
+                s.previous[index] = previous;
+            }
+        }
+    }
+}
+
+/// A cloth being simulated: the mesh, the parameters, the solver's state and
+/// the simulated clock.
+///
+/// ```
+/// use drape::sim::{Grid, Simulation, SolverParams};
+/// let mesh = Grid::default().build().unwrap(); // the seed's 20 × 30 cloth
+/// let mut sim = Simulation::new(mesh, SolverParams::default()).unwrap();
+/// sim.advance(100).unwrap();
+/// // 100 steps of h = 0.05 s (h is an f32, so 0.05 is 0.050000000745...)
+/// assert!((sim.time() - 5.0).abs() < 1e-6);
+/// assert!(sim.strain().max < 0.5);
+/// ```
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    mesh: Arc<ClothMesh>,
+    params: SolverParams,
+    kind: SolverKind,
+    fixed: Vec<bool>,
+    bars: Vec<Bar>,
+    engine: Engine,
+    positions: Vec<Vec3>,
+    previous: Vec<Vec3>,
+    steps: u64,
+    time: f64,
+    diverged: Option<SimError>,
+}
+
+/// The bars that can move: those not joining two fixed particles.
+fn active_bars(mesh: &ClothMesh, fixed: &[bool]) -> Vec<Bar> {
+    mesh.bars().iter().filter(|b| !(fixed[b.a as usize] && fixed[b.b as usize])).copied().collect()
+}
+
+impl Simulation {
+    /// A simulation of `mesh` at its initial state, with the default solver.
+    pub fn new(mesh: impl Into<Arc<ClothMesh>>, params: SolverParams) -> Result<Self, SimError> {
+        Self::with_solver(mesh, params, SolverKind::default())
+    }
+
+    /// A simulation of `mesh` at its initial state, with the given solver.
+    pub fn with_solver(
+        mesh: impl Into<Arc<ClothMesh>>,
+        params: SolverParams,
+        kind: SolverKind,
+    ) -> Result<Self, SimError> {
+        params.validate()?;
+        let mesh = mesh.into();
+        let fixed = mesh.fixed().to_vec();
+        let bars = active_bars(&mesh, &fixed);
+        let positions = mesh.positions().to_vec();
+        let previous = positions.clone();
+        let engine = Engine::new(kind, &positions, &previous, &fixed, &bars, params.mass);
+        Ok(Self { mesh, params, kind, fixed, bars, engine, positions, previous, steps: 0, time: 0.0, diverged: None })
+    }
+
+    /// Back to the mesh's initial state and time 0, keeping parameters and solver.
+    pub fn reset(&mut self) {
+        let fresh = Self::with_solver(self.mesh.clone(), self.params.clone(), self.kind);
+        // Parameters were validated when set, so rebuilding cannot fail.
+        if let Ok(fresh) = fresh {
+            *self = fresh;
+        }
+    }
+
+    /// The mesh being simulated.
+    pub fn mesh(&self) -> &Arc<ClothMesh> {
+        &self.mesh
+    }
+    /// The current parameters.
+    pub fn params(&self) -> &SolverParams {
+        &self.params
+    }
+    /// Changes the parameters; they apply from the next step on.
+    pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
+        params.validate()?;
+        let mass_changed = params.mass != self.params.mass;
+        self.params = params;
+        if mass_changed {
+            self.rebuild_engine();
+        }
+        Ok(())
+    }
+    /// The solver in use.
+    pub fn solver(&self) -> SolverKind {
+        self.kind
+    }
+    /// Switches solver, carrying the current state over.
+    pub fn set_solver(&mut self, kind: SolverKind) {
+        if kind != self.kind {
+            self.kind = kind;
+            self.rebuild_engine();
+        }
+    }
+    /// Steps taken since the start.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+    /// Simulated time since the start, seconds.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    /// Current positions x_i, scene order, metres.
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+    /// Positions one step ago x_{i−1}, scene order, metres.
+    pub fn previous_positions(&self) -> &[Vec3] {
+        &self.previous
+    }
+    /// Which particles are fixed now.
+    pub fn fixed(&self) -> &[bool] {
+        &self.fixed
+    }
+    /// The bars the solver relaxes (none joins two fixed particles).
+    pub fn bars(&self) -> &[Bar] {
+        &self.bars
+    }
+    /// Bar projections one step performs: bars × relaxations.
+    pub fn projections_per_step(&self) -> u64 {
+        self.bars.len() as u64 * u64::from(self.params.relaxations)
+    }
+    /// The error that stopped the simulation, if it blew up.
+    pub fn diverged(&self) -> Option<&SimError> {
+        self.diverged.as_ref()
+    }
+
+    /// One step of h.
+    pub fn step(&mut self) -> Result<(), SimError> {
+        self.advance(1)
+    }
+
+    /// `n` steps of h. Stops with [`SimError::Diverged`] at the first step that
+    /// leaves a non-finite position; the positions then stay those of the last
+    /// call that succeeded.
+    pub fn advance(&mut self, n: u64) -> Result<(), SimError> {
+        if let Some(e) = &self.diverged {
+            return Err(e.clone());
+        }
+        for _ in 0..n {
+            let mut force = self.params.gravity;
+            if !self.params.wind.is_none() {
+                force += self.params.wind.force(self.time);
+            }
+            let displacement = self.params.displacement_of(force);
+            let first_velocity = (self.steps == 0).then(|| self.mesh.velocities());
+            self.engine.step(&self.params, displacement, first_velocity);
+            self.steps += 1;
+            self.time += f64::from(self.params.dt);
+            if let Some(particle) = self.engine.first_non_finite() {
+                let e = SimError::Diverged { step: self.steps, particle };
+                self.diverged = Some(e.clone());
+                return Err(e);
+            }
+        }
+        self.engine.read(&mut self.positions, &mut self.previous);
+        Ok(())
+    }
+
+    /// Fixes or frees a particle. Bars between two fixed particles drop out of
+    /// the relaxation and come back when one end is freed.
+    pub fn set_fixed(&mut self, index: usize, fixed: bool) -> Result<(), SimError> {
+        self.check_index(index)?;
+        if self.fixed[index] != fixed {
+            self.fixed[index] = fixed;
+            self.bars = active_bars(&self.mesh, &self.fixed);
+            self.rebuild_engine();
+        }
+        Ok(())
+    }
+
+    /// Puts a particle at `position` (as a mouse drag does). Its previous
+    /// position becomes its current one, so a free particle keeps the motion
+    /// of the move as velocity.
+    pub fn move_particle(&mut self, index: usize, position: Vec3) -> Result<(), SimError> {
+        self.check_index(index)?;
+        if !position.is_finite() {
+            return Err(SimError::Param(ParamError::new("position", position, "finite coordinates")));
+        }
+        let previous = self.positions[index];
+        self.positions[index] = position;
+        self.previous[index] = previous;
+        self.engine.set_particle(index, position, previous);
+        Ok(())
+    }
+
+    /// Replaces the state: current positions x_i and previous positions
+    /// x_{i−1} (equal arrays mean every particle is at rest). Counts as a
+    /// started simulation: the next step uses equation 1, not the Euler start.
+    pub fn set_state(&mut self, positions: &[Vec3], previous: &[Vec3]) -> Result<(), SimError> {
+        let n = self.positions.len();
+        for (what, list) in [("positions", positions), ("previous positions", previous)] {
+            if list.len() != n {
+                return Err(SimError::Param(ParamError::new(what, list.len(), "one entry per particle")));
+            }
+            if let Some(p) = list.iter().find(|p| !p.is_finite()) {
+                return Err(SimError::Param(ParamError::new(what, p, "finite coordinates")));
+            }
+        }
+        self.positions.copy_from_slice(positions);
+        self.previous.copy_from_slice(previous);
+        self.steps = self.steps.max(1);
+        self.diverged = None;
+        self.rebuild_engine();
+        Ok(())
+    }
+
+    /// Max and RMS relative strain of the relaxed bars.
+    pub fn strain(&self) -> Strain {
+        metrics::strain(&self.positions, &self.bars)
+    }
+    /// Kinetic energy of the free particles, joules.
+    pub fn kinetic_energy(&self) -> f64 {
+        metrics::kinetic_energy(&self.positions, &self.previous, &self.fixed, self.params.mass, self.params.dt)
+    }
+    /// Gravitational potential energy of the free particles, joules.
+    pub fn potential_energy(&self) -> f64 {
+        metrics::potential_energy(&self.positions, &self.fixed, self.params.gravity)
+    }
+
+    fn check_index(&self, index: usize) -> Result<(), SimError> {
+        if index < self.positions.len() {
+            Ok(())
+        } else {
+            Err(SimError::NoSuchParticle { index, count: self.positions.len() })
+        }
+    }
+
+    fn rebuild_engine(&mut self) {
+        self.engine =
+            Engine::new(self.kind, &self.positions, &self.previous, &self.fixed, &self.bars, self.params.mass);
+    }
+}
