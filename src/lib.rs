@@ -4,8 +4,11 @@
 //! - [`sim`]: the solver (no GPU): Verlet integration, bar relaxation, metrics.
 //! - [`scene`]: scene files (TOML) and meshes (OBJ) → a [`sim::Simulation`].
 //! - [`headless`]: the `drape run` command's work, for the CLI and for tests.
+//! - [`render`] (feature `viewer`): the wgpu renderer, windowless.
 #![warn(missing_docs)]
 
 pub mod headless;
+#[cfg(feature = "viewer")]
+pub mod render;
 pub mod scene;
 pub mod sim;

@@ -31,6 +31,13 @@ enum Command {
     Run(RunArgs),
     /// List the bundled scenes.
     Scenes,
+    /// Run a scene headless and write one rendered frame as a PNG (needs no
+    /// display: a software rasteriser will do).
+    #[cfg(feature = "viewer")]
+    Render(RenderArgs),
+    /// List the graphics adapters wgpu can see and which one drape uses.
+    #[cfg(feature = "viewer")]
+    Adapters,
 }
 
 /// Overrides of the scene's `[solver]` values.
@@ -77,6 +84,68 @@ struct RunArgs {
     quiet: bool,
 }
 
+/// Which layers `drape render` draws.
+#[cfg(feature = "viewer")]
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum RenderView {
+    /// The lit surface (bars for a mesh without triangles).
+    Surface,
+    /// The bars coloured by strain, and the particles.
+    Bars,
+}
+
+#[cfg(feature = "viewer")]
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// A bundled scene name (see `drape scenes`) or a scene TOML file.
+    #[arg(long, default_value = "seed")]
+    scene: String,
+    /// Steps to take before rendering.
+    #[arg(long, default_value_t = 100)]
+    steps: u64,
+    #[command(flatten)]
+    overrides: SolverOverrides,
+    /// The PNG to write.
+    #[arg(long, default_value = "frame.png")]
+    out: PathBuf,
+    /// Image size, WIDTHxHEIGHT pixels.
+    #[arg(long, default_value = "800x600", value_parser = parse_size)]
+    size: (u32, u32),
+    /// What to draw.
+    #[arg(long, value_enum, default_value_t = RenderView::Surface)]
+    view: RenderView,
+    /// Camera as YAW,PITCH[,DISTANCE]: degrees about the vertical (0 looks
+    /// along −z), degrees of elevation, metres from the cloth's centre.
+    /// Default: the scene's own view.
+    #[arg(long, value_parser = parse_camera, allow_hyphen_values = true)]
+    camera: Option<(f32, f32, Option<f32>)>,
+}
+
+#[cfg(feature = "viewer")]
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT, e.g. 800x600"))?;
+    let dim = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!("'{v}' is not a size from 1 to 16384 pixels")),
+    };
+    Ok((dim(w)?, dim(h)?))
+}
+
+#[cfg(feature = "viewer")]
+fn parse_camera(s: &str) -> Result<(f32, f32, Option<f32>), String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let number = |v: &str| v.parse::<f32>().ok().filter(|x| x.is_finite());
+    let bad = || format!("'{s}' is not YAW,PITCH or YAW,PITCH,DISTANCE (degrees, degrees, metres)");
+    match parts.as_slice() {
+        [y, p] => Ok((number(y).ok_or_else(bad)?, number(p).ok_or_else(bad)?, None)),
+        [y, p, d] => {
+            let d = number(d).filter(|d| *d > 0.0).ok_or_else(bad)?;
+            Ok((number(y).ok_or_else(bad)?, number(p).ok_or_else(bad)?, Some(d)))
+        }
+        _ => Err(bad()),
+    }
+}
+
 fn parse_solver(s: &str) -> Result<SolverKind, String> {
     SolverKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
         let names: Vec<_> = SolverKind::ALL.iter().map(|k| k.name()).collect();
@@ -91,6 +160,13 @@ fn main() -> ExitCode {
         Some(Command::Run(args)) => run(args),
         Some(Command::Scenes) => {
             list_scenes();
+            Ok(())
+        }
+        #[cfg(feature = "viewer")]
+        Some(Command::Render(args)) => render(args),
+        #[cfg(feature = "viewer")]
+        Some(Command::Adapters) => {
+            print!("{}", drape::render::gpu::adapters_report());
             Ok(())
         }
         None => viewer(&cli.scene),
@@ -169,9 +245,53 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+#[cfg(feature = "viewer")]
+fn render(args: RenderArgs) -> anyhow::Result<()> {
+    use drape::render::{self, AdapterPreference, Gpu, OffscreenTarget, Renderer, ViewOptions};
+
+    let (scene, mut sim) = load_scene(&args.scene, &args.overrides)?;
+    sim.advance(args.steps).with_context(|| format!("running {}", scene.source))?;
+    let gpu = Gpu::headless(AdapterPreference::Hardware)?;
+    log::info!("rendering on {}", gpu.adapter_summary());
+    let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT);
+    let options = match args.view {
+        RenderView::Surface => ViewOptions::for_mesh(&scene.mesh),
+        RenderView::Bars => ViewOptions::bars_view(),
+    };
+    let mut hint = scene.camera;
+    if let Some((yaw, pitch, distance)) = args.camera {
+        hint.yaw_degrees = yaw;
+        hint.pitch_degrees = pitch;
+        hint.distance = distance.or(hint.distance);
+    }
+    let (width, height) = args.size;
+    let camera = render::start_camera(&hint, &sim, width as f32 / height as f32);
+    let image = render::render_image(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
+    image.save(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!(
+        "{}: {} steps ({:.3} s simulated), {}x{} → {}",
+        scene.name,
+        sim.steps(),
+        sim.time(),
+        width,
+        height,
+        args.out.display()
+    );
+    Ok(())
+}
+
+#[cfg(feature = "viewer")]
 fn viewer(scene_name: &str) -> anyhow::Result<()> {
     let _ = scene_name;
     anyhow::bail!("the viewer is not built yet")
+}
+
+#[cfg(not(feature = "viewer"))]
+fn viewer(_scene_name: &str) -> anyhow::Result<()> {
+    anyhow::bail!(
+        "this drape was built without the `viewer` feature, so it has no window; \
+         `drape run` works, or rebuild with default features"
+    )
 }
 
 #[cfg(test)]

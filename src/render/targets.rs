@@ -1,0 +1,165 @@
+//! Render targets: the multisampled colour and depth-stencil textures a
+//! frame is drawn into, offscreen colour textures, and reading them back.
+
+/// The depth-stencil format: depth for occlusion, stencil so that the
+/// shadow darkens each ground pixel once.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth24PlusStencil8;
+
+/// Samples per pixel the renderer uses with `format` on `adapter`: 4 when
+/// both it and the depth format support that, else 1.
+pub fn msaa_samples(adapter: &wgpu::Adapter, format: wgpu::TextureFormat) -> u32 {
+    let colour = adapter.get_texture_format_features(format).flags;
+    let depth = adapter.get_texture_format_features(DEPTH_FORMAT).flags;
+    if colour.sample_count_supported(4)
+        && depth.sample_count_supported(4)
+        && colour.contains(wgpu::TextureFormatFeatureFlags::MULTISAMPLE_RESOLVE)
+    {
+        4
+    } else {
+        1
+    }
+}
+
+/// The textures a frame of one size needs besides the target itself.
+#[derive(Debug)]
+pub(crate) struct FrameTargets {
+    pub size: (u32, u32),
+    /// Multisampled colour, resolved into the target; `None` without MSAA.
+    /// Only `RENDER_ATTACHMENT`: on wgpu's GL backend a multisampled texture
+    /// with any other usage renders black.
+    pub msaa: Option<wgpu::TextureView>,
+    pub depth: wgpu::TextureView,
+}
+
+impl FrameTargets {
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat, samples: u32, size: (u32, u32)) -> Self {
+        let extent = wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 };
+        let texture = |label, format, samples| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: extent,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+        };
+        let msaa = (samples > 1)
+            .then(|| texture("msaa colour", format, samples).create_view(&wgpu::TextureViewDescriptor::default()));
+        let depth = texture("depth", DEPTH_FORMAT, samples).create_view(&wgpu::TextureViewDescriptor::default());
+        Self { size, msaa, depth }
+    }
+}
+
+/// Why an image could not be read back from the GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadbackError {
+    /// Waiting for the GPU failed (device lost or timed out).
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(#[from] wgpu::PollError),
+    /// Mapping the buffer failed.
+    #[error("cannot map the readback buffer: {0}")]
+    Map(String),
+    /// The texture's format is not 8-bit RGBA or BGRA.
+    #[error("cannot read back a {0:?} texture as RGBA8")]
+    Format(wgpu::TextureFormat),
+}
+
+/// A single-sampled colour texture to render into and read back.
+#[derive(Debug)]
+pub struct OffscreenTarget {
+    /// The texture (`RENDER_ATTACHMENT | COPY_SRC`).
+    pub texture: wgpu::Texture,
+    /// A view of it, to render into.
+    pub view: wgpu::TextureView,
+}
+
+impl OffscreenTarget {
+    /// The colour format offscreen images use: 8-bit RGBA, not sRGB (the
+    /// shaders encode), which is also what egui prefers.
+    pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+    /// A `width × height` target in [`Self::FORMAT`].
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("offscreen"),
+            size: wgpu::Extent3d { width: width.max(1), height: height.max(1), depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: Self::FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        Self { texture, view }
+    }
+
+    /// Copies the texture to the CPU as an RGBA image (waits for the GPU).
+    pub fn read(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<image::RgbaImage, ReadbackError> {
+        read_texture(device, queue, &self.texture)
+    }
+}
+
+/// Copies an 8-bit RGBA or BGRA texture with `COPY_SRC` usage to the CPU.
+///
+/// Rows in a buffer copy must start at multiples of 256 bytes
+/// ([`wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`]); the padding is dropped here.
+pub fn read_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<image::RgbaImage, ReadbackError> {
+    use wgpu::TextureFormat as F;
+    let swap_red_blue = match texture.format() {
+        F::Rgba8Unorm | F::Rgba8UnormSrgb => false,
+        F::Bgra8Unorm | F::Bgra8UnormSrgb => true,
+        other => return Err(ReadbackError::Format(other)),
+    };
+    let (width, height) = (texture.width(), texture.height());
+    let row = width * 4;
+    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: u64::from(padded_row) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: None },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    buffer.slice(..).map_async(wgpu::MapMode::Read, move |result| {
+        let _ = sender.send(result);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely())?;
+    match receiver.recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(ReadbackError::Map(e.to_string())),
+        Err(_) => return Err(ReadbackError::Map("the map callback never ran".into())),
+    }
+    let mut pixels = Vec::with_capacity((row * height) as usize);
+    {
+        let mapped = buffer.slice(..).get_mapped_range().map_err(|e| ReadbackError::Map(e.to_string()))?;
+        for padded in mapped.chunks(padded_row as usize) {
+            pixels.extend_from_slice(&padded[..row as usize]);
+        }
+    }
+    buffer.unmap();
+    if swap_red_blue {
+        for px in pixels.chunks_exact_mut(4) {
+            px.swap(0, 2);
+        }
+    }
+    image::RgbaImage::from_raw(width, height, pixels)
+        .ok_or_else(|| ReadbackError::Map("the copied image has the wrong size".into()))
+}
