@@ -25,7 +25,7 @@ fn vs_point(@builtin(vertex_index) index: u32, p: PointIn) -> PointOut {
     let corner = vec2<f32>(xs[index], ys[index]);
     var radius = frame.style.w;
     if (p.flags & 1u) != 0u {
-        radius = radius * 1.8;
+        radius = radius * 1.5;
     }
     if (p.flags & 2u) != 0u {
         radius = radius * 2.2;
@@ -55,7 +55,7 @@ fn fs_point(in: PointOut) -> @location(0) vec4<f32> {
     if (in.flags & 2u) != 0u {
         colour = GRABBED_COLOUR;
     }
-    if r > 0.72 {
+    if r > 0.75 {
         colour = RIM_COLOUR;
     }
     return output(colour, 1.0);

@@ -5,10 +5,16 @@
 //! - [`scene`]: scene files (TOML) and meshes (OBJ) → a [`sim::Simulation`].
 //! - [`headless`]: the `drape run` command's work, for the CLI and for tests.
 //! - [`render`] (feature `viewer`): the wgpu renderer, windowless.
+//! - [`ui`] (feature `viewer`): the egui panel, returning commands.
+//! - [`app`] (feature `viewer`): the window, and the viewer it shows.
 #![warn(missing_docs)]
 
+#[cfg(feature = "viewer")]
+pub mod app;
 pub mod headless;
 #[cfg(feature = "viewer")]
 pub mod render;
 pub mod scene;
 pub mod sim;
+#[cfg(feature = "viewer")]
+pub mod ui;

@@ -256,7 +256,7 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     let mut renderer = Renderer::new(&gpu, OffscreenTarget::FORMAT);
     let options = match args.view {
         RenderView::Surface => ViewOptions::for_mesh(&scene.mesh),
-        RenderView::Bars => ViewOptions::bars_view(),
+        RenderView::Bars => ViewOptions::bars_view().adapted_to(&scene.mesh),
     };
     let mut hint = scene.camera;
     if let Some((yaw, pitch, distance)) = args.camera {
@@ -267,7 +267,7 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     let (width, height) = args.size;
     let camera = render::start_camera(&hint, &sim, width as f32 / height as f32);
     let image = render::render_image(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
-    image.save(&args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
+    render::write_png(&args.out, &image).with_context(|| format!("cannot write {}", args.out.display()))?;
     println!(
         "{}: {} steps ({:.3} s simulated), {}x{} → {}",
         scene.name,
@@ -282,8 +282,9 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
 
 #[cfg(feature = "viewer")]
 fn viewer(scene_name: &str) -> anyhow::Result<()> {
-    let _ = scene_name;
-    anyhow::bail!("the viewer is not built yet")
+    let scene = scene::load(scene_name)?;
+    drape::app::run(scene)?;
+    Ok(())
 }
 
 #[cfg(not(feature = "viewer"))]

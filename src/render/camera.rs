@@ -10,6 +10,8 @@ use crate::scene::CameraHint;
 const MAX_PITCH: f32 = 89.0 * std::f32::consts::PI / 180.0;
 /// Radians of orbit per pixel of mouse drag.
 const ORBIT_PER_PIXEL: f32 = 0.008;
+/// How much further than a tight fit [`OrbitCamera::fit`] puts the camera.
+const FIT_MARGIN: f32 = 1.1;
 /// Closest and furthest the camera may get, metres.
 const DISTANCE_RANGE: (f32, f32) = (1e-3, 1e6);
 
@@ -116,8 +118,9 @@ impl OrbitCamera {
         let half = half_y.min(half_x);
         self.target = 0.5 * (min + max);
         // A sphere of this radius just touches the narrower side of the view;
-        // the box inside it leaves a comfortable margin.
-        self.distance = (radius / half.sin()).clamp(DISTANCE_RANGE.0, DISTANCE_RANGE.1);
+        // the box inside it leaves a margin, and a little more for the cloth
+        // to swing into.
+        self.distance = (FIT_MARGIN * radius / half.sin()).clamp(DISTANCE_RANGE.0, DISTANCE_RANGE.1);
     }
 
     /// Unit vector from the target towards the eye.

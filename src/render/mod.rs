@@ -27,7 +27,7 @@ pub mod view;
 pub use camera::{OrbitCamera, Ray};
 pub use gpu::{AdapterPreference, Gpu, GpuError};
 pub use renderer::{FrameSpec, Renderer, Viewport};
-pub use targets::{OffscreenTarget, ReadbackError};
+pub use targets::{OffscreenTarget, ReadbackError, write_png};
 pub use view::ViewOptions;
 
 use crate::scene::CameraHint;

@@ -163,3 +163,12 @@ pub fn read_texture(
     image::RgbaImage::from_raw(width, height, pixels)
         .ok_or_else(|| ReadbackError::Map("the copied image has the wrong size".into()))
 }
+
+/// Writes an RGBA image as a PNG with the strongest compression (screenshots
+/// and golden images are written once and kept).
+pub fn write_png(path: &std::path::Path, image: &image::RgbaImage) -> Result<(), image::ImageError> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let encoder = PngEncoder::new_with_quality(file, CompressionType::Best, FilterType::Adaptive);
+    image.write_with_encoder(encoder)
+}

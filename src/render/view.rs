@@ -5,6 +5,8 @@ use crate::sim::ClothMesh;
 
 /// More fixed particles than this are not marked by default.
 pub const MAX_MARKED_PINS: usize = 40;
+/// More particles than this are not drawn as dots by default.
+pub const MAX_DOTTED_PARTICLES: usize = 200;
 
 /// Which layers the renderer draws and how.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,7 +56,7 @@ impl ViewOptions {
             ground: true,
             strain_scale: 0.1,
             bar_width: 2.0,
-            particle_radius: 3.0,
+            particle_radius: 2.5,
         }
     }
 
@@ -64,13 +66,23 @@ impl ViewOptions {
     }
 
     /// The surface view for a mesh with triangles, the bars view otherwise
-    /// (a mesh of particles and bars alone has nothing else to show). Pins
-    /// are marked unless there are so many that the dots would hide the
-    /// cloth (a whole pinned row or a pinned table top).
+    /// (a mesh of particles and bars alone has nothing else to show); see
+    /// [`Self::adapted_to`].
     pub fn for_mesh(mesh: &ClothMesh) -> Self {
         let base = if mesh.triangles().is_empty() { Self::bars_view() } else { Self::surface_view() };
+        base.adapted_to(mesh)
+    }
+
+    /// These options with dots only where they help: pins are marked unless
+    /// so many that the dots would hide the cloth (a whole pinned row, a
+    /// pinned table top), and particles are shown only on small meshes.
+    pub fn adapted_to(self, mesh: &ClothMesh) -> Self {
         let pins = mesh.fixed().iter().filter(|&&f| f).count();
-        Self { pins: pins <= MAX_MARKED_PINS, ..base }
+        Self {
+            pins: self.pins && pins <= MAX_MARKED_PINS,
+            particles: self.particles && mesh.particle_count() <= MAX_DOTTED_PARTICLES,
+            ..self
+        }
     }
 }
 

@@ -1,0 +1,16 @@
+//! The interactive viewer: a winit window showing a [`Viewer`].
+//!
+//! - [`viewer`]: [`Viewer`], everything except the window (testable offscreen).
+//! - [`grab`]: picking and dragging particles.
+//! - [`stepper`]: steps per frame, and the real-time accumulator.
+//! - [`clock`]: where time comes from.
+//! - [`window`]: the winit application, the surface and its failure modes.
+
+pub mod clock;
+pub mod grab;
+pub mod stepper;
+pub mod viewer;
+pub mod window;
+
+pub use viewer::{Frame, Viewer, ViewerSettings, WindowRequest};
+pub use window::{AppError, run};

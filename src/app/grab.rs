@@ -1,0 +1,194 @@
+//! Picking a particle under the cursor, and holding one with the mouse.
+
+use glam::{Vec2, Vec3};
+
+use crate::render::OrbitCamera;
+use crate::sim::{SimError, Simulation};
+
+/// How far from the cursor a particle may be and still be picked when the
+/// ray misses every triangle (or there are none), in pixels.
+pub const PICK_RADIUS_PIXELS: f32 = 14.0;
+
+/// What the camera sees: for turning cursor positions into rays.
+#[derive(Clone, Copy, Debug)]
+pub struct ViewGeometry {
+    /// The camera.
+    pub camera: OrbitCamera,
+    /// Size of the 3-D viewport, pixels.
+    pub size: Vec2,
+    /// The depth range's radius (see [`OrbitCamera::projection`]).
+    pub world_radius: f32,
+}
+
+/// The particle under `cursor` (pixels from the viewport's top-left).
+///
+/// With triangles: the vertex nearest the cursor, on screen, of the nearest
+/// triangle the cursor's ray hits — so a particle behind the cloth is never
+/// picked through it. Otherwise (a bar-only mesh, or the cursor just off the
+/// cloth's edge): the particle nearest the cursor on screen within
+/// [`PICK_RADIUS_PIXELS`], the nearer to the eye on a tie.
+pub fn pick(positions: &[Vec3], triangles: &[[u32; 3]], view: &ViewGeometry, cursor: Vec2) -> Option<usize> {
+    let ray = view.camera.ray(cursor, view.size, view.world_radius);
+    let mut nearest: Option<(f32, [u32; 3])> = None;
+    for &tri in triangles {
+        let [a, b, c] = tri.map(|i| positions[i as usize]);
+        if let Some(t) = ray.hit_triangle(a, b, c)
+            && nearest.is_none_or(|(best, _)| t < best)
+        {
+            nearest = Some((t, tri));
+        }
+    }
+    let on_screen = |i: usize| view.camera.project(positions[i], view.size, view.world_radius);
+    if let Some((_, tri)) = nearest {
+        return tri
+            .iter()
+            .map(|&i| i as usize)
+            .filter_map(|i| on_screen(i).map(|(p, _)| (i, p.distance(cursor))))
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(i, _)| i);
+    }
+    (0..positions.len())
+        .filter_map(|i| on_screen(i).map(|(p, depth)| (i, p.distance(cursor), depth)))
+        .filter(|&(_, d, _)| d <= PICK_RADIUS_PIXELS)
+        .min_by(|x, y| (x.1.round(), x.2).partial_cmp(&(y.1.round(), y.2)).unwrap_or(std::cmp::Ordering::Equal))
+        .map(|(i, _, _)| i)
+}
+
+/// A particle held by the mouse. While held it is fixed, so the solver
+/// leaves it where the mouse puts it and the rest of the cloth follows; on
+/// release it gets its own fixedness back and keeps the velocity of the
+/// last move (what [`Simulation::move_particle`] does).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grab {
+    /// The particle held.
+    pub particle: usize,
+    was_fixed: bool,
+    /// A point of the plane the particle moves in, and its normal: the
+    /// plane facing the camera through where the particle was grabbed.
+    plane_point: Vec3,
+    plane_normal: Vec3,
+    /// From the cursor's point on the plane to the particle, so it does not
+    /// jump to the cursor when grabbed off-centre.
+    offset: Vec3,
+    /// Where the particle is being held.
+    pub target: Vec3,
+}
+
+impl Grab {
+    /// Takes hold of `particle` under `cursor`, fixing it.
+    pub fn start(sim: &mut Simulation, particle: usize, view: &ViewGeometry, cursor: Vec2) -> Result<Self, SimError> {
+        let position = *sim
+            .positions()
+            .get(particle)
+            .ok_or(SimError::NoSuchParticle { index: particle, count: sim.positions().len() })?;
+        let was_fixed = sim.fixed()[particle];
+        let plane_normal = view.camera.backward();
+        let ray = view.camera.ray(cursor, view.size, view.world_radius);
+        let on_plane = ray.hit_plane(position, plane_normal).unwrap_or(position);
+        sim.set_fixed(particle, true)?;
+        Ok(Self {
+            particle,
+            was_fixed,
+            plane_point: position,
+            plane_normal,
+            offset: position - on_plane,
+            target: position,
+        })
+    }
+
+    /// Follows the cursor: the new target is where the cursor's ray meets
+    /// the grab plane (unchanged if it runs parallel to it).
+    pub fn drag_to(&mut self, view: &ViewGeometry, cursor: Vec2) {
+        let ray = view.camera.ray(cursor, view.size, view.world_radius);
+        if let Some(p) = ray.hit_plane(self.plane_point, self.plane_normal) {
+            self.target = p + self.offset;
+        }
+    }
+
+    /// Puts the particle at the target; call once per frame before stepping.
+    pub fn hold(&self, sim: &mut Simulation) -> Result<(), SimError> {
+        sim.move_particle(self.particle, self.target)
+    }
+
+    /// Lets go: the particle is free again unless it was fixed before.
+    pub fn release(self, sim: &mut Simulation) -> Result<(), SimError> {
+        sim.set_fixed(self.particle, self.was_fixed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::{Grid, GridPlane, Pins, SolverParams};
+
+    /// A 5 × 5 vertical grid, 1 m spacing, top row pinned, seen head-on.
+    fn setup() -> (Simulation, ViewGeometry) {
+        let mesh = Grid {
+            columns: 5,
+            rows: 5,
+            spacing: 1.0,
+            plane: GridPlane::Vertical,
+            pins: Pins::TopRow,
+            ..Grid::default()
+        }
+        .build()
+        .unwrap();
+        let sim =
+            Simulation::new(mesh, SolverParams { wind: crate::sim::Wind::None, ..SolverParams::default() }).unwrap();
+        let mut camera = OrbitCamera::default();
+        camera.fit(sim.mesh().bounds(), 1.0);
+        (sim, ViewGeometry { camera, size: Vec2::new(400.0, 400.0), world_radius: 20.0 })
+    }
+
+    fn screen(view: &ViewGeometry, p: Vec3) -> Vec2 {
+        view.camera.project(p, view.size, view.world_radius).unwrap().0
+    }
+
+    #[test]
+    fn picks_the_particle_under_the_cursor_and_nothing_off_the_cloth() {
+        let (sim, view) = setup();
+        for i in [0, 7, 12, 24] {
+            let at = screen(&view, sim.positions()[i]) + Vec2::new(3.0, -2.0);
+            assert_eq!(pick(sim.positions(), sim.mesh().triangles(), &view, at), Some(i));
+        }
+        assert_eq!(pick(sim.positions(), sim.mesh().triangles(), &view, Vec2::new(2.0, 2.0)), None);
+    }
+
+    #[test]
+    fn picks_without_triangles_by_screen_distance() {
+        let (sim, view) = setup();
+        let at = screen(&view, sim.positions()[12]) + Vec2::new(5.0, 5.0);
+        assert_eq!(pick(sim.positions(), &[], &view, at), Some(12));
+        let far = screen(&view, sim.positions()[12]) + Vec2::new(PICK_RADIUS_PIXELS * 3.0, 0.0);
+        assert!(pick(sim.positions(), &[], &view, far).is_none_or(|i| i != 12));
+    }
+
+    #[test]
+    fn a_grabbed_particle_follows_the_cursor_in_the_view_plane_and_is_released_free() {
+        let (mut sim, view) = setup();
+        let particle = 22; // bottom row, free
+        let start = sim.positions()[particle];
+        let cursor = screen(&view, start);
+        let mut grab = Grab::start(&mut sim, particle, &view, cursor).unwrap();
+        assert!(sim.fixed()[particle], "held particles are fixed");
+        grab.drag_to(&view, cursor + Vec2::new(40.0, 0.0));
+        grab.hold(&mut sim).unwrap();
+        sim.step().unwrap();
+        let moved = sim.positions()[particle];
+        assert_eq!(moved, grab.target, "the solver leaves a held particle where the mouse put it");
+        assert!(moved.x > start.x + 0.1 && (moved.z - start.z).abs() < 1e-4, "{start} → {moved}");
+        // Its neighbour was pulled along.
+        assert!(sim.positions()[particle - 1].x > sim.mesh().positions()[particle - 1].x);
+        grab.release(&mut sim).unwrap();
+        assert!(!sim.fixed()[particle]);
+    }
+
+    #[test]
+    fn a_grabbed_pin_stays_a_pin() {
+        let (mut sim, view) = setup();
+        let cursor = screen(&view, sim.positions()[2]);
+        let grab = Grab::start(&mut sim, 2, &view, cursor).unwrap();
+        grab.release(&mut sim).unwrap();
+        assert!(sim.fixed()[2]);
+    }
+}

@@ -1,0 +1,662 @@
+//! [`Viewer`]: the interactive viewer without its window — the simulation,
+//! the camera, the panel, the mouse and keys, and drawing a frame into any
+//! texture view. The window ([`super::run`]) feeds it egui input and shows
+//! what it draws; tests drive it offscreen the same way.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use egui::{Key, Modifiers, PointerButton, Ui};
+use glam::Vec2;
+
+use super::clock::{Clock, WallClock};
+use super::grab::{Grab, ViewGeometry, pick};
+use super::stepper::Stepper;
+use crate::render::{
+    self, FrameSpec, Gpu, OffscreenTarget, OrbitCamera, ReadbackError, Renderer, ViewOptions, Viewport,
+};
+use crate::scene::{self, Scene};
+use crate::sim::{SimError, Simulation};
+use crate::ui::overlay::{self, Toast};
+use crate::ui::panel::PANEL_WIDTH;
+use crate::ui::{PanelModel, PanelState, Stats, UiCommand, UiFrame, UiPainter};
+
+/// Seconds a notice stays up.
+const TOAST_SECONDS: f64 = 4.0;
+/// Points of wheel scroll per 10 % zoom step.
+const SCROLL_PER_ZOOM_STEP: f32 = 50.0;
+
+/// What the window must do on the viewer's behalf.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WindowRequest {
+    /// Close the window and end the program.
+    Quit,
+    /// Reconfigure presentation with vsync on or off.
+    SetVsync(bool),
+}
+
+/// One frame's result: egui's drawing, and what the window must do.
+pub struct Frame {
+    /// egui's output, to draw with [`Viewer::draw`].
+    pub ui: UiFrame,
+    /// egui's requests to the platform (cursor icon, clipboard, …).
+    pub platform: egui::PlatformOutput,
+    /// Requests for the window.
+    pub requests: Vec<WindowRequest>,
+    /// When to draw the next frame if nothing happens: zero while the
+    /// simulation runs.
+    pub repaint_after: Duration,
+}
+
+impl std::fmt::Debug for Frame {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Frame")
+            .field("ui", &self.ui)
+            .field("requests", &self.requests)
+            .field("repaint_after", &self.repaint_after)
+            .finish_non_exhaustive()
+    }
+}
+
+/// How a viewer is set up besides its scene.
+pub struct ViewerSettings {
+    /// Draw egui without dithering or hardware filtering (golden images).
+    pub predictable_ui: bool,
+    /// Where time comes from.
+    pub clock: Box<dyn Clock>,
+    /// Where F12 saves PNGs.
+    pub screenshot_dir: PathBuf,
+    /// What the panel says about the graphics adapter; `None` describes
+    /// the real one (tests fix it, since it names the driver version).
+    pub adapter_label: Option<String>,
+}
+
+impl Default for ViewerSettings {
+    fn default() -> Self {
+        Self {
+            predictable_ui: false,
+            clock: Box::new(WallClock::default()),
+            screenshot_dir: PathBuf::from("screenshots"),
+            adapter_label: None,
+        }
+    }
+}
+
+/// What a mouse drag in the 3-D view is doing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Drag {
+    None,
+    Orbit,
+    Pan,
+    Grab(Grab),
+}
+
+/// The viewer's state and behaviour, independent of any window.
+pub struct Viewer {
+    gpu: Gpu,
+    adapter: String,
+    scene: Scene,
+    sim: Simulation,
+    renderer: Renderer,
+    painter: UiPainter,
+    egui: egui::Context,
+    panel: PanelState,
+    camera: OrbitCamera,
+    camera_placed: bool,
+    view: ViewOptions,
+    paused: bool,
+    stepper: Stepper,
+    stats: Stats,
+    toasts: Vec<Toast>,
+    drag: Drag,
+    /// The simulation changed since the renderer last took its positions.
+    sim_changed: bool,
+    clock: Box<dyn Clock>,
+    last_frame: Option<Duration>,
+    vsync: Option<bool>,
+    /// The 3-D view's rectangle, points.
+    view_rect: egui::Rect,
+    pixels_per_point: f32,
+    screenshot_dir: PathBuf,
+    screenshot_pending: bool,
+}
+
+impl std::fmt::Debug for Viewer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Viewer").field("scene", &self.scene.name).field("steps", &self.sim.steps()).finish()
+    }
+}
+
+impl Viewer {
+    /// A viewer of `scene` drawing into targets of `format`.
+    pub fn new(
+        gpu: Gpu,
+        scene: Scene,
+        format: wgpu::TextureFormat,
+        settings: ViewerSettings,
+    ) -> Result<Self, SimError> {
+        let sim = scene.simulation()?;
+        let mut renderer = Renderer::new(&gpu, format);
+        renderer.update(&sim);
+        let painter = UiPainter::new(&gpu.device, format, settings.predictable_ui);
+        let egui = egui::Context::default();
+        egui.set_theme(egui::Theme::Dark);
+        let view = ViewOptions::for_mesh(&scene.mesh);
+        Ok(Self {
+            adapter: settings.adapter_label.unwrap_or_else(|| gpu.adapter_summary()),
+            gpu,
+            camera: OrbitCamera::default(),
+            camera_placed: false,
+            scene,
+            sim,
+            renderer,
+            painter,
+            egui,
+            panel: PanelState::default(),
+            view,
+            paused: false,
+            stepper: Stepper::default(),
+            stats: Stats::default(),
+            toasts: Vec::new(),
+            drag: Drag::None,
+            sim_changed: false,
+            clock: settings.clock,
+            last_frame: None,
+            vsync: None,
+            view_rect: egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(800.0, 600.0)),
+            pixels_per_point: 1.0,
+            screenshot_dir: settings.screenshot_dir,
+            screenshot_pending: false,
+        })
+    }
+
+    /// The GPU objects the viewer draws with.
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// The egui context (the window's egui-winit state feeds it).
+    pub fn egui(&self) -> &egui::Context {
+        &self.egui
+    }
+
+    /// The simulation.
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+
+    /// The simulation, to change it from code (a script, a test). The
+    /// change is drawn in the next frame.
+    pub fn simulation_mut(&mut self) -> &mut Simulation {
+        self.sim_changed = true;
+        &mut self.sim
+    }
+
+    /// Where particle `index` is drawn, in points from the window's top-left
+    /// corner (as of the last frame); `None` if it is behind the camera.
+    pub fn particle_on_screen(&self, index: usize) -> Option<egui::Pos2> {
+        let p = *self.sim.positions().get(index)?;
+        let geometry = self.view_geometry();
+        let (pixel, _) = geometry.camera.project(p, geometry.size, geometry.world_radius)?;
+        let points = pixel / self.pixels_per_point;
+        Some(self.view_rect.min + egui::vec2(points.x, points.y))
+    }
+
+    /// The scene loaded.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &OrbitCamera {
+        &self.camera
+    }
+
+    /// Whether time is stopped.
+    pub fn paused(&self) -> bool {
+        self.paused
+    }
+
+    /// What is drawn.
+    pub fn view_options(&self) -> &ViewOptions {
+        &self.view
+    }
+
+    /// The notices currently up, newest last.
+    pub fn toasts(&self) -> &[Toast] {
+        &self.toasts
+    }
+
+    /// The window title for the current scene.
+    pub fn title(&self) -> String {
+        format!("drape — {}", self.scene.name)
+    }
+
+    /// Tells the viewer whether presentation waits for vsync (shown in the
+    /// panel); `None` hides the option (no window).
+    pub fn set_vsync(&mut self, vsync: Option<bool>) {
+        self.vsync = vsync;
+    }
+
+    /// The 3-D view's rectangle in physical pixels, from the last frame.
+    pub fn viewport(&self) -> Viewport {
+        let r = self.view_rect;
+        let s = self.pixels_per_point;
+        Viewport { x: r.left() * s, y: r.top() * s, width: r.width() * s, height: r.height() * s }
+    }
+
+    fn seconds(&mut self) -> f64 {
+        self.clock.now().as_secs_f64()
+    }
+
+    fn toast(&mut self, text: impl Into<String>, error: bool) {
+        let until = self.seconds() + TOAST_SECONDS;
+        self.toasts.push(Toast { text: text.into(), error, until });
+    }
+
+    /// Runs the interface for one frame on `input`, applies what the user
+    /// asked for, advances the simulation, and returns egui's drawing.
+    pub fn run_frame(&mut self, input: egui::RawInput) -> Frame {
+        let ctx = self.egui.clone();
+        let mut commands = Vec::new();
+        let output = ctx.run_ui(input, |ui| commands.extend(self.build_ui(ui)));
+        self.pixels_per_point = output.pixels_per_point;
+        if !self.camera_placed {
+            self.reset_camera();
+            self.camera_placed = true;
+        }
+        let mut requests = Vec::new();
+        for command in commands {
+            requests.extend(self.apply(command));
+        }
+        self.advance();
+
+        let now = self.seconds();
+        self.toasts.retain(|t| t.until > now);
+        let running = !self.paused && self.sim.diverged().is_none();
+        let egui_delay = output.viewport_output.get(&egui::ViewportId::ROOT).map_or(Duration::MAX, |v| v.repaint_delay);
+        let toast_delay = self.toasts.iter().map(|t| Duration::from_secs_f64((t.until - now).max(0.0))).min();
+        let repaint_after = if running || !matches!(self.drag, Drag::None) {
+            Duration::ZERO
+        } else {
+            egui_delay.min(toast_delay.unwrap_or(Duration::MAX))
+        };
+        let primitives = ctx.tessellate(output.shapes, output.pixels_per_point);
+        // Textures go up now, whether or not the frame is drawn: a frame
+        // skipped while minimised must not lose the font atlas.
+        let free_textures = self.painter.upload_textures(&self.gpu.device, &self.gpu.queue, output.textures_delta);
+        Frame {
+            ui: UiFrame { primitives, free_textures, pixels_per_point: output.pixels_per_point },
+            platform: output.platform_output,
+            requests,
+            repaint_after,
+        }
+    }
+
+    /// Lays out the panel, the 3-D view and the overlays; returns commands.
+    fn build_ui(&mut self, ui: &mut Ui) -> Vec<UiCommand> {
+        let mut commands = self.keyboard(ui.ctx());
+        let model = PanelModel {
+            scene: &self.scene,
+            sim: &self.sim,
+            paused: self.paused,
+            time_mode: self.stepper.mode,
+            view: self.view,
+            vsync: self.vsync,
+            stats: &self.stats,
+            adapter: &self.adapter,
+        };
+        let state = &mut self.panel;
+        egui::Panel::right("panel").resizable(true).default_size(PANEL_WIDTH).min_size(220.0).show(ui, |ui| {
+            commands.extend(crate::ui::panel(ui, state, &model));
+        });
+        egui::CentralPanel::no_frame().show(ui, |ui| commands.extend(self.view_area(ui)));
+        let ctx = ui.ctx().clone();
+        let shows_strain = self.view.strain_colours
+            && ((self.view.surface && !self.sim.mesh().triangles().is_empty())
+                || self.view.structural_bars
+                || self.view.bend_bars);
+        if shows_strain {
+            overlay::strain_legend(&ctx, self.view_rect, self.view.strain_scale);
+        }
+        if let Some(error) = self.sim.diverged() {
+            commands.extend(overlay::diverged_message(&ctx, self.view_rect, &error.to_string()));
+        }
+        let now = self.seconds();
+        overlay::toasts(&ctx, self.view_rect, &self.toasts, now);
+        commands
+    }
+
+    /// The key bindings, unless a text field has the keyboard. Keys are
+    /// consumed before any widget sees them, so Space never also "clicks"
+    /// a focused button.
+    fn keyboard(&mut self, ctx: &egui::Context) -> Vec<UiCommand> {
+        if ctx.egui_wants_keyboard_input() {
+            return Vec::new();
+        }
+        let bindings = [
+            (Key::Space, UiCommand::TogglePause),
+            (Key::S, UiCommand::Step),
+            (Key::R, UiCommand::Reset),
+            (Key::F, UiCommand::FitCamera),
+            (Key::Home, UiCommand::ResetCamera),
+            (Key::F12, UiCommand::Screenshot),
+            (Key::Escape, UiCommand::Quit),
+        ];
+        ctx.input_mut(|input| {
+            bindings.into_iter().filter(|(key, _)| input.consume_key(Modifiers::NONE, *key)).map(|(_, c)| c).collect()
+        })
+    }
+
+    fn view_geometry(&self) -> ViewGeometry {
+        let vp = self.viewport();
+        ViewGeometry {
+            camera: self.camera,
+            size: Vec2::new(vp.width, vp.height),
+            world_radius: self.renderer.world_radius(),
+        }
+    }
+
+    /// The 3-D view: orbit, pan, zoom, grab and pin with the mouse.
+    fn view_area(&mut self, ui: &mut Ui) -> Vec<UiCommand> {
+        let rect = ui.max_rect();
+        self.view_rect = rect;
+        self.pixels_per_point = ui.ctx().pixels_per_point();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        let (pointer, modifiers, scroll) = ui.input(|i| (i.pointer.clone(), i.modifiers, i.smooth_scroll_delta()));
+        let ppp = self.pixels_per_point;
+        // Cursor in viewport pixels.
+        let cursor = pointer.interact_pos().map(|p| Vec2::new(p.x - rect.left(), p.y - rect.top()) * ppp);
+
+        if response.hovered() && scroll.y != 0.0 {
+            self.camera.zoom(scroll.y / SCROLL_PER_ZOOM_STEP);
+        }
+        if response.hovered()
+            && pointer.primary_pressed()
+            && let Some(cursor) = cursor
+        {
+            let geometry = self.view_geometry();
+            let picked = pick(self.sim.positions(), self.sim.mesh().triangles(), &geometry, cursor);
+            match picked {
+                Some(i) if modifiers.ctrl || modifiers.command => self.toggle_pin(i),
+                Some(i) => match Grab::start(&mut self.sim, i, &geometry, cursor) {
+                    Ok(grab) => {
+                        self.drag = Drag::Grab(grab);
+                        self.renderer.set_highlight(Some(i));
+                        self.sim_changed = true;
+                    }
+                    Err(e) => self.toast(e.to_string(), true),
+                },
+                None if modifiers.ctrl || modifiers.command => {}
+                None => self.drag = Drag::Orbit,
+            }
+        }
+        if response.hovered()
+            && matches!(self.drag, Drag::None)
+            && (pointer.button_pressed(PointerButton::Secondary) || pointer.button_pressed(PointerButton::Middle))
+        {
+            self.drag = Drag::Pan;
+        }
+        let delta = Vec2::new(pointer.delta().x, pointer.delta().y) * ppp;
+        match &mut self.drag {
+            Drag::Orbit => self.camera.orbit(delta),
+            Drag::Pan => self.camera.pan(delta, rect.height() * ppp),
+            Drag::Grab(grab) => {
+                if let Some(cursor) = cursor {
+                    let geometry = ViewGeometry {
+                        camera: self.camera,
+                        size: Vec2::new(rect.width(), rect.height()) * ppp,
+                        world_radius: self.renderer.world_radius(),
+                    };
+                    grab.drag_to(&geometry, cursor);
+                }
+            }
+            Drag::None => {}
+        }
+        let released = match self.drag {
+            Drag::Orbit | Drag::Grab(_) => !pointer.primary_down() || pointer.primary_released(),
+            Drag::Pan => !pointer.secondary_down() && !pointer.middle_down(),
+            Drag::None => false,
+        };
+        if released {
+            self.end_drag();
+        }
+        if let Drag::Grab(_) = self.drag {
+            ui.ctx().set_cursor_icon(egui::CursorIcon::Grabbing);
+        }
+        Vec::new()
+    }
+
+    fn end_drag(&mut self) {
+        if let Drag::Grab(grab) = std::mem::replace(&mut self.drag, Drag::None) {
+            // Put it where the mouse last was, so the release carries the
+            // last move's velocity, then give it back its fixedness.
+            let result = grab.hold(&mut self.sim).and_then(|()| grab.release(&mut self.sim));
+            if let Err(e) = result {
+                self.toast(e.to_string(), true);
+            }
+            self.renderer.set_highlight(None);
+            self.sim_changed = true;
+        }
+    }
+
+    fn toggle_pin(&mut self, particle: usize) {
+        let fixed = self.sim.fixed().get(particle).copied().unwrap_or(false);
+        match self.sim.set_fixed(particle, !fixed) {
+            Ok(()) => {
+                self.sim_changed = true;
+                let what = if fixed { "unpinned" } else { "pinned" };
+                self.toast(format!("particle {particle} {what}"), false);
+            }
+            Err(e) => self.toast(e.to_string(), true),
+        }
+    }
+
+    /// Advances the simulation by this frame's steps (none while paused or
+    /// blown up) and records the frame's figures.
+    fn advance(&mut self) {
+        let now = self.clock.now();
+        let frame_seconds = self.last_frame.map_or(0.0, |last| now.saturating_sub(last).as_secs_f64());
+        self.last_frame = Some(now);
+        if let Drag::Grab(grab) = &self.drag {
+            if let Err(e) = grab.hold(&mut self.sim) {
+                self.toast(e.to_string(), true);
+            }
+            self.sim_changed = true;
+        }
+        let mut steps = 0;
+        let mut solver_seconds = 0.0;
+        let time_before = self.sim.time();
+        if !self.paused && self.sim.diverged().is_none() {
+            steps = self.stepper.steps_for_frame(
+                frame_seconds,
+                f64::from(self.sim.params().dt),
+                self.stats.solver_seconds_per_step(),
+            );
+            let start = self.clock.now();
+            let result = self.sim.advance(steps);
+            solver_seconds = self.clock.now().saturating_sub(start).as_secs_f64();
+            self.sim_changed = true;
+            if result.is_err() {
+                self.end_drag();
+            }
+        }
+        let simulated = self.sim.time() - time_before;
+        let at = now.as_secs_f64();
+        self.stats.record_frame(at, frame_seconds, solver_seconds, steps, simulated, self.sim.strain());
+    }
+
+    /// Applies one command; returns what the window must do, if anything.
+    pub fn apply(&mut self, command: UiCommand) -> Option<WindowRequest> {
+        match command {
+            UiCommand::TogglePause => {
+                if self.sim.diverged().is_none() {
+                    self.paused = !self.paused;
+                    self.stepper.reset();
+                }
+            }
+            UiCommand::Step => {
+                self.paused = true;
+                if self.sim.diverged().is_none() {
+                    let _ = self.sim.step();
+                    self.sim_changed = true;
+                }
+            }
+            UiCommand::Reset => {
+                self.end_drag();
+                self.sim.reset();
+                self.stepper.reset();
+                self.sim_changed = true;
+            }
+            UiCommand::LoadScene(name) => self.load_scene(&name),
+            UiCommand::SetParams(params) => {
+                if let Err(e) = self.sim.set_params(params) {
+                    self.toast(e.to_string(), true);
+                }
+            }
+            UiCommand::RestoreSceneParams => {
+                if let Err(e) = self.sim.set_params(self.scene.params.clone()) {
+                    self.toast(e.to_string(), true);
+                }
+                self.sim.set_solver(self.scene.solver);
+            }
+            UiCommand::SetSolver(kind) => self.sim.set_solver(kind),
+            UiCommand::SetView(view) => self.view = view,
+            UiCommand::SetTimeMode(mode) => {
+                self.stepper.mode = mode;
+                self.stepper.reset();
+            }
+            UiCommand::SetVsync(on) => return Some(WindowRequest::SetVsync(on)),
+            UiCommand::FitCamera => {
+                self.camera.fit(render::cloth_bounds(&self.sim), self.viewport().aspect());
+            }
+            UiCommand::ResetCamera => self.reset_camera(),
+            UiCommand::Screenshot => self.screenshot_pending = true,
+            UiCommand::Quit => return Some(WindowRequest::Quit),
+        }
+        None
+    }
+
+    fn reset_camera(&mut self) {
+        self.camera = OrbitCamera::from_hint(&self.scene.camera, self.sim.mesh().bounds(), self.viewport().aspect());
+    }
+
+    fn load_scene(&mut self, name: &str) {
+        let loaded = scene::load(name).map_err(|e| e.to_string()).and_then(|scene| {
+            let sim = scene.simulation().map_err(|e| e.to_string())?;
+            Ok((scene, sim))
+        });
+        match loaded {
+            Ok((scene, sim)) => {
+                self.drag = Drag::None;
+                self.view = ViewOptions { strain_scale: self.view.strain_scale, ..ViewOptions::for_mesh(&scene.mesh) };
+                self.scene = scene;
+                self.sim = sim;
+                self.renderer.update(&self.sim);
+                self.renderer.set_highlight(None);
+                self.stats.clear();
+                self.stepper.reset();
+                self.reset_camera();
+                self.sim_changed = false;
+                let text = format!("loaded {}", self.scene.name);
+                self.toast(text, false);
+            }
+            Err(e) => self.toast(format!("cannot load {name}: {e}"), true),
+        }
+    }
+
+    /// Records and submits the frame: the cloth in the 3-D view, then egui
+    /// over it, into `target` (`size` pixels, in the format the viewer was
+    /// made for). Takes the F12 screenshot if one was asked for. Call after
+    /// [`Self::run_frame`] and before presenting.
+    pub fn draw(&mut self, target: &wgpu::TextureView, size: (u32, u32), ui: &UiFrame) {
+        let start = self.clock.now();
+        self.record_and_submit(target, size, ui);
+        let elapsed = self.clock.now().saturating_sub(start).as_secs_f64();
+        self.stats.record_render(elapsed);
+        if std::mem::take(&mut self.screenshot_pending) {
+            self.save_screenshot(size, ui);
+        }
+        self.painter.free_textures(ui);
+    }
+
+    fn record_and_submit(&mut self, target: &wgpu::TextureView, size: (u32, u32), ui: &UiFrame) {
+        if std::mem::take(&mut self.sim_changed) {
+            self.renderer.update(&self.sim);
+        }
+        let frame = FrameSpec {
+            camera: self.camera,
+            viewport: self.viewport(),
+            options: self.view,
+            pixels_per_point: self.pixels_per_point,
+        };
+        let device = self.gpu.device.clone();
+        let queue = self.gpu.queue.clone();
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        self.renderer.render(&mut encoder, target, size, &frame);
+        let extra = self.painter.paint(&device, &queue, &mut encoder, target, size, ui);
+        queue.submit(extra.into_iter().chain([encoder.finish()]));
+    }
+
+    /// Draws the frame into a new offscreen image instead of a window: the
+    /// F12 path, and the golden test of the whole window. Frees nothing:
+    /// call [`Self::draw`] or [`Self::skip_draw`] for that.
+    pub fn render_image(&mut self, size: (u32, u32), ui: &UiFrame) -> Result<image::RgbaImage, ReadbackError> {
+        let target = OffscreenTarget::new(&self.gpu.device, size.0, size.1);
+        self.record_and_submit(&target.view, size, ui);
+        target.read(&self.gpu.device, &self.gpu.queue)
+    }
+
+    /// Ends a frame that is not drawn (a minimised window, a surface that
+    /// is not ready), or one drawn only with [`Self::render_image`].
+    pub fn skip_draw(&mut self, ui: &UiFrame) {
+        self.painter.free_textures(ui);
+    }
+
+    fn save_screenshot(&mut self, size: (u32, u32), ui: &UiFrame) {
+        let path = self.screenshot_dir.join(format!("drape-{}.png", timestamp()));
+        let result = self.render_image(size, ui).map_err(|e| e.to_string()).and_then(|image| {
+            std::fs::create_dir_all(&self.screenshot_dir).map_err(|e| e.to_string())?;
+            render::write_png(&path, &image).map_err(|e| e.to_string())
+        });
+        match result {
+            Ok(()) => self.toast(format!("saved {}", path.display()), false),
+            Err(e) => self.toast(format!("screenshot failed: {e}"), true),
+        }
+    }
+}
+
+/// `YYYYMMDD-HHMMSS-mmm` in UTC, from the system clock.
+fn timestamp() -> String {
+    let since = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    let secs = since.as_secs();
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    let (y, m, d) = civil_from_days(days as i64);
+    format!("{y:04}{m:02}{d:02}-{:02}{:02}{:02}-{:03}", rem / 3600, rem / 60 % 60, rem % 60, since.subsec_millis())
+}
+
+/// The proleptic Gregorian date of a day count since 1970-01-01
+/// (Howard Hinnant's `civil_from_days`).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_from_days(0), (1970, 1, 1));
+        assert_eq!(civil_from_days(11_016), (2000, 2, 29));
+        assert_eq!(civil_from_days(20_759), (2026, 11, 2));
+    }
+}

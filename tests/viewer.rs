@@ -1,0 +1,250 @@
+//! The viewer driven offscreen with synthetic input, exactly as the window
+//! drives it: mouse drags grab particles and orbit, keys pause and step,
+//! the panel is drawn (a golden image of the whole window), a blow-up shows
+//! its message, F12 writes a PNG.
+#![cfg(feature = "viewer")]
+
+mod common;
+
+use std::time::Duration;
+
+use drape::app::clock::TickingClock;
+use drape::app::{Frame, Viewer, ViewerSettings, WindowRequest};
+use drape::render::OffscreenTarget;
+use drape::scene;
+use drape::ui::UiCommand;
+use egui::{Event, Key, Modifiers, PointerButton, Pos2, pos2, vec2};
+use glam::Vec3;
+
+/// The window size the tests use, in points (= pixels: scale factor 1).
+const WINDOW: (u32, u32) = (800, 860);
+
+/// A viewer whose clock ticks 1 ms per reading, so its timings (and the
+/// stats the panel prints) are the same on every run.
+fn viewer(scene_name: &str, screenshots: &std::path::Path) -> Viewer {
+    let settings = ViewerSettings {
+        predictable_ui: true,
+        clock: Box::new(TickingClock { next: Duration::ZERO, tick: Duration::from_millis(1) }),
+        screenshot_dir: screenshots.to_path_buf(),
+        adapter_label: Some("test adapter".into()),
+    };
+    Viewer::new(common::gpu().clone(), scene::load(scene_name).unwrap(), OffscreenTarget::FORMAT, settings).unwrap()
+}
+
+/// Feeds one frame of input events (at frame number `n`, 60 per second).
+fn frame(viewer: &mut Viewer, n: u32, events: Vec<Event>) -> Frame {
+    let input = egui::RawInput {
+        screen_rect: Some(egui::Rect::from_min_size(Pos2::ZERO, vec2(WINDOW.0 as f32, WINDOW.1 as f32))),
+        time: Some(f64::from(n) / 60.0),
+        predicted_dt: 1.0 / 60.0,
+        focused: true,
+        events,
+        ..Default::default()
+    };
+    let frame = viewer.run_frame(input);
+    viewer.skip_draw(&frame.ui);
+    frame
+}
+
+fn press(pos: Pos2, button: PointerButton, pressed: bool, modifiers: Modifiers) -> Event {
+    Event::PointerButton { pos, button, pressed, modifiers }
+}
+
+fn key(key: Key) -> Event {
+    Event::Key { key, physical_key: None, pressed: true, repeat: false, modifiers: Modifiers::NONE }
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("drape-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+#[test]
+fn window_frame_with_the_panel() {
+    let mut v = viewer("seed", &temp_dir("panel"));
+    for n in 0..30 {
+        frame(&mut v, n, vec![]);
+    }
+    let last = frame(&mut v, 30, vec![]);
+    let image = v.render_image(WINDOW, &last.ui).unwrap();
+    v.skip_draw(&last.ui);
+    common::assert_golden("window-seed", &image);
+}
+
+#[test]
+fn dragging_the_cloth_pulls_a_particle_and_releases_it() {
+    let mut v = viewer("seed", &temp_dir("grab"));
+    v.apply(UiCommand::TogglePause);
+    frame(&mut v, 0, vec![]);
+    // The middle of the bottom row: free, and in front.
+    let particle = 29 * 20 + 10;
+    let at = v.particle_on_screen(particle).unwrap();
+    let start = v.simulation().positions()[particle];
+    frame(&mut v, 1, vec![Event::PointerMoved(at), press(at, PointerButton::Primary, true, Modifiers::NONE)]);
+    assert!(v.simulation().fixed()[particle], "a held particle is fixed");
+    v.apply(UiCommand::TogglePause); // run while holding
+    for n in 2..12 {
+        frame(&mut v, n, vec![Event::PointerMoved(at + vec2(8.0 * (n - 1) as f32, 0.0))]);
+    }
+    let held = v.simulation().positions()[particle];
+    assert!(held.x > start.x + 0.5, "dragged right on screen, moved +x in the world: {start} → {held}");
+    let end = at + vec2(80.0, 0.0);
+    frame(&mut v, 12, vec![press(end, PointerButton::Primary, false, Modifiers::NONE)]);
+    assert!(!v.simulation().fixed()[particle], "released particles are free again");
+    // The camera did not move: the drag went to the cloth, not to orbiting.
+    let camera = *v.camera();
+    frame(&mut v, 13, vec![]);
+    assert_eq!(*v.camera(), camera);
+}
+
+#[test]
+fn dragging_empty_space_orbits_and_the_wheel_zooms() {
+    let mut v = viewer("seed", &temp_dir("orbit"));
+    frame(&mut v, 0, vec![]);
+    let before = *v.camera();
+    let sky = pos2(20.0, 20.0);
+    frame(&mut v, 1, vec![Event::PointerMoved(sky), press(sky, PointerButton::Primary, true, Modifiers::NONE)]);
+    frame(&mut v, 2, vec![Event::PointerMoved(sky + vec2(50.0, 30.0))]);
+    frame(&mut v, 3, vec![press(sky + vec2(50.0, 30.0), PointerButton::Primary, false, Modifiers::NONE)]);
+    let after = *v.camera();
+    assert!(after.yaw < before.yaw, "dragging right turns the camera left about the cloth");
+    assert!(after.pitch > before.pitch, "dragging down looks from higher up");
+    assert_eq!(after.target, before.target);
+    let wheel = Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Point,
+        delta: vec2(0.0, 100.0),
+        phase: egui::TouchPhase::Move,
+        source: egui::MouseWheelSource::Unknown,
+        modifiers: Modifiers::NONE,
+    };
+    for n in 4..20 {
+        let events = if n == 4 { vec![Event::PointerMoved(sky), wheel.clone()] } else { vec![] };
+        frame(&mut v, n, events);
+    }
+    assert!(v.camera().distance < after.distance * 0.95, "the wheel zooms in");
+    // Right-drag pans: the target moves, the angles do not.
+    let panned = *v.camera();
+    frame(&mut v, 20, vec![press(sky, PointerButton::Secondary, true, Modifiers::NONE)]);
+    frame(&mut v, 21, vec![Event::PointerMoved(sky + vec2(40.0, 0.0))]);
+    frame(&mut v, 22, vec![press(sky + vec2(40.0, 0.0), PointerButton::Secondary, false, Modifiers::NONE)]);
+    assert_ne!(v.camera().target, panned.target);
+    assert_eq!((v.camera().yaw, v.camera().pitch), (panned.yaw, panned.pitch));
+}
+
+#[test]
+fn ctrl_click_pins_and_unpins() {
+    let mut v = viewer("seed", &temp_dir("pin"));
+    v.apply(UiCommand::TogglePause);
+    frame(&mut v, 0, vec![]);
+    let particle = 15 * 20 + 5;
+    let at = v.particle_on_screen(particle).unwrap();
+    let click = |pressed| press(at, PointerButton::Primary, pressed, Modifiers::CTRL);
+    let ctrl = Event::ModifiersChanged(Modifiers::CTRL);
+    frame(&mut v, 1, vec![ctrl.clone(), Event::PointerMoved(at), click(true)]);
+    frame(&mut v, 2, vec![click(false)]);
+    assert!(v.simulation().fixed()[particle]);
+    frame(&mut v, 3, vec![click(true)]);
+    frame(&mut v, 4, vec![click(false)]);
+    assert!(!v.simulation().fixed()[particle]);
+}
+
+#[test]
+fn keys_pause_step_reset_and_quit() {
+    let mut v = viewer("flag", &temp_dir("keys"));
+    frame(&mut v, 0, vec![]);
+    frame(&mut v, 1, vec![]);
+    assert_eq!(v.simulation().steps(), 2, "one step per frame");
+    frame(&mut v, 2, vec![key(Key::Space)]);
+    assert!(v.paused());
+    let steps = v.simulation().steps();
+    frame(&mut v, 3, vec![]);
+    assert_eq!(v.simulation().steps(), steps, "paused");
+    frame(&mut v, 4, vec![key(Key::S)]);
+    assert_eq!(v.simulation().steps(), steps + 1, "S takes one step");
+    frame(&mut v, 5, vec![key(Key::R)]);
+    assert_eq!(v.simulation().steps(), 0);
+    assert_eq!(v.simulation().positions(), v.scene().mesh.positions());
+    let quit = frame(&mut v, 6, vec![key(Key::Escape)]);
+    assert_eq!(quit.requests, vec![WindowRequest::Quit]);
+}
+
+#[test]
+fn parameter_changes_apply_at_once_and_scene_values_come_back() {
+    let mut v = viewer("seed", &temp_dir("params"));
+    let params = v.simulation().params().clone();
+    v.apply(UiCommand::SetParams(drape::sim::SolverParams { relaxations: 77, damping: 0.1, ..params.clone() }));
+    assert_eq!(v.simulation().params().relaxations, 77);
+    v.apply(UiCommand::Reset);
+    assert_eq!(v.simulation().params().relaxations, 77, "reset keeps the parameters");
+    // An invalid value is refused with a notice, and nothing changes.
+    v.apply(UiCommand::SetParams(drape::sim::SolverParams { dt: -1.0, ..params.clone() }));
+    assert_eq!(v.simulation().params().relaxations, 77);
+    assert!(v.toasts().iter().any(|t| t.error && t.text.contains("dt")), "{:?}", v.toasts());
+    v.apply(UiCommand::RestoreSceneParams);
+    assert_eq!(v.simulation().params(), &params);
+}
+
+#[test]
+fn loading_scenes_switches_mesh_and_view() {
+    let mut v = viewer("seed", &temp_dir("load"));
+    frame(&mut v, 0, vec![]);
+    v.apply(UiCommand::LoadScene("chain".into()));
+    assert_eq!(v.simulation().positions().len(), 21);
+    assert!(v.view_options().structural_bars && !v.view_options().surface, "a bar-only mesh is shown as bars");
+    v.apply(UiCommand::LoadScene("no-such-scene".into()));
+    assert_eq!(v.simulation().positions().len(), 21, "a failed load keeps the scene");
+    assert!(v.toasts().iter().any(|t| t.error && t.text.contains("no-such-scene")));
+    // A frame of the chain draws (bars and particles, no triangles).
+    let f = frame(&mut v, 1, vec![]);
+    let image = v.render_image((320, 200), &f.ui).unwrap();
+    v.skip_draw(&f.ui);
+    assert_eq!(image.dimensions(), (320, 200));
+}
+
+#[test]
+fn a_blow_up_stops_the_simulation_and_says_so() {
+    let mut v = viewer("seed", &temp_dir("boom"));
+    frame(&mut v, 0, vec![]);
+    // No physical setting diverges the reference solver within a test's
+    // time; a particle thrown to the edge of f32 does (bar lengths overflow).
+    let far = Vec3::splat(3e38);
+    v.simulation_mut().move_particle(599, far).unwrap();
+    frame(&mut v, 1, vec![]);
+    assert!(v.simulation().diverged().is_some());
+    let steps = v.simulation().steps();
+    for n in 2..5 {
+        frame(&mut v, n, vec![key(Key::Space)]);
+    }
+    assert_eq!(v.simulation().steps(), steps, "stopped: neither frames nor Space step it");
+    assert!(v.simulation().positions().iter().all(|p| p.is_finite() || *p == far));
+    // Let the message's fade-in finish.
+    for n in 5..20 {
+        frame(&mut v, n, vec![]);
+    }
+    let f = frame(&mut v, 20, vec![]);
+    let image = v.render_image(WINDOW, &f.ui).unwrap();
+    // The message is in the 3-D view: keep only that part of the window.
+    let view = v.viewport();
+    let image = image::imageops::crop_imm(&image, 0, 0, view.width as u32, WINDOW.1 / 2 + 100).to_image();
+    v.skip_draw(&f.ui);
+    common::assert_golden("window-blow-up", &image);
+    v.apply(UiCommand::Reset);
+    assert!(v.simulation().diverged().is_none());
+}
+
+#[test]
+fn f12_saves_a_screenshot_and_says_where() {
+    let dir = temp_dir("f12");
+    let mut v = viewer("hammock", &dir);
+    frame(&mut v, 0, vec![]);
+    let f = frame(&mut v, 1, vec![key(Key::F12)]);
+    let target = OffscreenTarget::new(&common::gpu().device, WINDOW.0, WINDOW.1);
+    v.draw(&target.view, WINDOW, &f.ui);
+    let files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let shot = image::open(&files[0]).unwrap();
+    assert_eq!((shot.width(), shot.height()), WINDOW);
+    assert!(v.toasts().iter().any(|t| !t.error && t.text.contains("saved")));
+    let _ = std::fs::remove_dir_all(&dir);
+}
