@@ -266,7 +266,7 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     }
     let (width, height) = args.size;
     let camera = render::start_camera(&hint, &sim, width as f32 / height as f32);
-    let image = render::render_image(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
+    let image = drape::app::snapshot(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
     render::write_png(&args.out, &image).with_context(|| format!("cannot write {}", args.out.display()))?;
     println!(
         "{}: {} steps ({:.3} s simulated), {}x{} → {}",

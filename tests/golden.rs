@@ -22,7 +22,7 @@ fn render_scene(name: &str, steps: u64, bars: bool) -> image::RgbaImage {
         if bars { ViewOptions::bars_view().adapted_to(&scene.mesh) } else { ViewOptions::for_mesh(&scene.mesh) };
     let camera = render::start_camera(&scene.camera, &sim, SIZE.0 as f32 / SIZE.1 as f32);
     let mut renderer = Renderer::new(gpu, OffscreenTarget::FORMAT);
-    render::render_image(gpu, &mut renderer, &sim, &camera, &options, SIZE).unwrap()
+    drape::app::snapshot(gpu, &mut renderer, &sim, &camera, &options, SIZE).unwrap()
 }
 
 #[test]

@@ -312,11 +312,11 @@ impl Viewer {
         });
         egui::CentralPanel::no_frame().show(ui, |ui| commands.extend(self.view_area(ui)));
         let ctx = ui.ctx().clone();
-        let shows_strain = self.view.strain_colours
-            && ((self.view.surface && !self.sim.mesh().triangles().is_empty())
-                || self.view.structural_bars
-                || self.view.bend_bars);
-        if shows_strain {
+        // A scene file dropped on the window opens.
+        let dropped: Vec<String> =
+            ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().display().to_string()).collect());
+        commands.extend(dropped.into_iter().map(UiCommand::LoadScene));
+        if super::snapshot::shows_strain(&self.view, &self.sim) {
             overlay::strain_legend(&ctx, self.view_rect, self.view.strain_scale);
         }
         if let Some(error) = self.sim.diverged() {

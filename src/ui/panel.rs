@@ -189,7 +189,7 @@ fn stats_section(ui: &mut Ui, model: &PanelModel<'_>) {
         }
     });
     let now = stats.history().last().map_or(0.0, |s| s.at);
-    let solver: PlotPoints<'_> = stats.history().map(|s| [s.at - now, s.solver_ms]).collect();
+    let solver: PlotPoints<'_> = stats.history().filter_map(|s| Some([s.at - now, s.solver_ms?])).collect();
     let max: PlotPoints<'_> = stats.history().map(|s| [s.at - now, f64::from(s.max_strain) * 100.0]).collect();
     let rms: PlotPoints<'_> = stats.history().map(|s| [s.at - now, f64::from(s.rms_strain) * 100.0]).collect();
     ui.label(RichText::new("solver ms per step over the last seconds").small());

@@ -15,8 +15,8 @@ const SMOOTHING: f64 = 0.1;
 pub struct Sample {
     /// Wall-clock seconds since the viewer started.
     pub at: f64,
-    /// Solver milliseconds per step in that frame (0 if it took none).
-    pub solver_ms: f64,
+    /// Solver milliseconds per step in that frame; `None` if it took none.
+    pub solver_ms: Option<f64>,
     /// Largest bar strain after the frame.
     pub max_strain: f32,
     /// RMS bar strain after the frame.
@@ -62,7 +62,7 @@ impl Stats {
         self.strain = strain;
         self.history.push_back(Sample {
             at,
-            solver_ms: per_step.unwrap_or(0.0) * 1e3,
+            solver_ms: per_step.map(|s| s * 1e3),
             max_strain: strain.max,
             rms_strain: strain.rms,
         });
@@ -136,6 +136,6 @@ mod tests {
         stats.record_frame(0.0, 0.016, 0.004, 1, 0.05, Strain::default());
         stats.record_frame(0.016, 0.016, 0.0, 0, 0.0, Strain::default());
         assert_eq!(stats.solver_seconds_per_step(), Some(0.004));
-        assert_eq!(stats.history().last().unwrap().solver_ms, 0.0);
+        assert_eq!(stats.history().last().unwrap().solver_ms, None);
     }
 }
