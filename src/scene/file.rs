@@ -50,8 +50,10 @@ pub struct SolverTable {
     pub mass: f32,
     /// f_g, newtons.
     pub gravity: [f32; 3],
-    /// `reference` (more solvers come with later versions).
+    /// `fast` (default) or `reference`.
     pub method: SolverKind,
+    /// Relative strain below which relaxation stops early (0: off).
+    pub tolerance: f32,
 }
 
 impl Default for SolverTable {
@@ -64,6 +66,7 @@ impl Default for SolverTable {
             mass: p.mass,
             gravity: p.gravity.to_array(),
             method: SolverKind::default(),
+            tolerance: p.tolerance,
         }
     }
 }
@@ -246,6 +249,7 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         mass: s.mass,
         gravity: vec3(s.gravity),
         wind,
+        tolerance: s.tolerance,
     };
     params.validate().map_err(|e| {
         let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };

@@ -54,10 +54,12 @@
 //! - [`mesh`]: particles, bars, triangles; grids, adjacency lists, triangle meshes.
 //! - [`simulation`]: [`Simulation`], the clock and the public state.
 //! - [`reference`]: the seed's loops written plainly, the yardstick.
+//! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
 //! - [`exact`]: exact answers (discrete free fall, pendulum, catenary) for tests and error measures.
 
 pub mod exact;
+pub mod fast;
 pub mod mesh;
 pub mod metrics;
 pub mod params;

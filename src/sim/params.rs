@@ -65,6 +65,13 @@ pub struct SolverParams {
     /// f_w in the seed's equation 4: the wind, a force applied to every free
     /// particle. Default [`Wind::None`].
     pub wind: Wind,
+    /// Early end of relaxation: when every bar is within this relative strain
+    /// `|len − rest| / rest` before its projection in a pass, the step stops
+    /// relaxing after that pass. Dimensionless, range `0 <= tolerance < 1`,
+    /// default 0 (off: always `relaxations` passes, as the seed does, so runs
+    /// stay reproducible pass for pass).
+    #[serde(default)]
+    pub tolerance: f32,
 }
 
 impl Default for SolverParams {
@@ -76,6 +83,7 @@ impl Default for SolverParams {
             mass: 0.2,
             gravity: Vec3::new(0.0, -9.8, 0.0),
             wind: Wind::None,
+            tolerance: 0.0,
         }
     }
 }
@@ -124,6 +132,9 @@ impl SolverParams {
             return Err(ParamError::new("mass", self.mass, "kilograms, 1e-9 <= mass <= 1e9"));
         }
         check_force("gravity", self.gravity)?;
+        if !(0.0..1.0).contains(&self.tolerance) {
+            return Err(ParamError::new("tolerance", self.tolerance, "0 <= tolerance < 1 (0 turns it off)"));
+        }
         self.wind.validate()
     }
 
@@ -162,6 +173,7 @@ mod tests {
             (SolverParams { mass: f32::NAN, ..base.clone() }, "mass"),
             (SolverParams { gravity: Vec3::new(0.0, f32::NAN, 0.0), ..base.clone() }, "gravity"),
             (SolverParams { wind: Wind::Seed { scale: f32::INFINITY }, ..base.clone() }, "wind.scale"),
+            (SolverParams { tolerance: -1e-3, ..base.clone() }, "tolerance"),
         ];
         for (params, name) in cases {
             let err = params.validate().expect_err(name);

@@ -32,10 +32,13 @@ pub struct ReferenceSolver {
 }
 
 impl ReferenceSolver {
-    /// One step: integrate (equation 1, or equation 2 when `first`), then relax.
+    /// One step: integrate (equation 1, or equation 2 when `first_velocity`
+    /// gives v₀), then relax `relaxations` times, or fewer once a pass finds
+    /// every bar within `tolerance` (relative) before projecting it, when
+    /// `tolerance > 0`. Returns the passes done.
     ///
     /// `displacement` is `h²/m · f` for the step's force (equations 3–5), the
-    /// same for every particle; `first_velocity` gives v₀ for equation 2.
+    /// same for every particle.
     pub fn step(
         &mut self,
         dt: f32,
@@ -43,7 +46,8 @@ impl ReferenceSolver {
         displacement: Vec3,
         first_velocity: Option<&[Vec3]>,
         relaxations: u32,
-    ) {
+        tolerance: f32,
+    ) -> u32 {
         let keep = 1.0 - damping;
         for i in 0..self.positions.len() {
             if self.inverse_mass[i] == 0.0 {
@@ -59,9 +63,20 @@ impl ReferenceSolver {
             self.previous[i] = x;
             self.positions[i] = next;
         }
-        for _ in 0..relaxations {
-            self.relax_once();
+        if tolerance <= 0.0 {
+            for _ in 0..relaxations {
+                self.relax_once();
+            }
+            return relaxations;
         }
+        let mut passes = 0;
+        for _ in 0..relaxations {
+            passes += 1;
+            if self.relax_once_measured() <= tolerance {
+                break;
+            }
+        }
+        passes
     }
 
     /// One relaxation pass over every bar, in creation order.
@@ -73,5 +88,21 @@ impl ReferenceSolver {
             self.positions[a] += da;
             self.positions[b] += db;
         }
+    }
+
+    /// [`Self::relax_once`], also returning the largest relative strain met
+    /// before a projection (0 when there are no bars).
+    pub fn relax_once_measured(&mut self) -> f32 {
+        let mut worst = 0.0f32;
+        for bar in &self.bars {
+            let (a, b) = (bar.a as usize, bar.b as usize);
+            let (wa, wb) = (self.inverse_mass[a], self.inverse_mass[b]);
+            let (xa, xb) = (self.positions[a], self.positions[b]);
+            worst = worst.max((xa.distance(xb) - bar.rest_length).abs() / bar.rest_length);
+            let (da, db) = project_bar(xa, xb, bar.rest_length, wa, wb);
+            self.positions[a] += da;
+            self.positions[b] += db;
+        }
+        worst
     }
 }

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::fast::FastSolver;
 use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
 use super::params::{ParamError, SolverParams};
@@ -15,18 +16,23 @@ use super::reference::ReferenceSolver;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SolverKind {
-    /// The seed's loops as written: scalar, bars in creation order.
+    /// The same equations ordered for speed: coloured, SIMD lanes, threads for
+    /// large grids ([`super::fast`]).
     #[default]
+    Fast,
+    /// The seed's loops as written: scalar, bars in creation order
+    /// ([`super::reference`]).
     Reference,
 }
 
 impl SolverKind {
     /// Every solver, for menus and benchmarks.
-    pub const ALL: [SolverKind; 1] = [SolverKind::Reference];
+    pub const ALL: [SolverKind; 2] = [SolverKind::Fast, SolverKind::Reference];
 
     /// A short name, as accepted by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
+            SolverKind::Fast => "fast",
             SolverKind::Reference => "reference",
         }
     }
@@ -63,24 +69,35 @@ pub enum SimError {
 #[derive(Clone, Debug)]
 enum Engine {
     Reference(ReferenceSolver),
+    Fast(FastSolver),
 }
 
 impl Engine {
-    fn new(kind: SolverKind, positions: &[Vec3], previous: &[Vec3], fixed: &[bool], bars: &[Bar], mass: f32) -> Self {
-        let inverse_mass = fixed.iter().map(|&f| if f { 0.0 } else { 1.0 / mass }).collect();
+    fn new(
+        kind: SolverKind,
+        mesh: &ClothMesh,
+        state: (&[Vec3], &[Vec3]),
+        fixed: &[bool],
+        bars: &[Bar],
+        mass: f32,
+    ) -> Self {
+        let (positions, previous) = state;
         match kind {
             SolverKind::Reference => Engine::Reference(ReferenceSolver {
                 positions: positions.to_vec(),
                 previous: previous.to_vec(),
-                inverse_mass,
+                inverse_mass: fixed.iter().map(|&f| if f { 0.0 } else { 1.0 / mass }).collect(),
                 bars: bars.to_vec(),
             }),
+            SolverKind::Fast => Engine::Fast(FastSolver::new(mesh, positions, previous, fixed, bars)),
         }
     }
 
-    fn step(&mut self, params: &SolverParams, displacement: Vec3, first_velocity: Option<&[Vec3]>) {
+    fn step(&mut self, params: &SolverParams, displacement: Vec3, first_velocity: Option<&[Vec3]>) -> u32 {
+        let p = params;
         match self {
-            Engine::Reference(s) => s.step(params.dt, params.damping, displacement, first_velocity, params.relaxations),
+            Engine::Reference(s) => s.step(p.dt, p.damping, displacement, first_velocity, p.relaxations, p.tolerance),
+            Engine::Fast(s) => s.step(p.dt, p.damping, displacement, first_velocity, p.relaxations, p.tolerance),
         }
     }
 
@@ -90,12 +107,14 @@ impl Engine {
                 positions.copy_from_slice(&s.positions);
                 previous.copy_from_slice(&s.previous);
             }
+            Engine::Fast(s) => s.read(positions, previous),
         }
     }
 
     fn first_non_finite(&self) -> Option<usize> {
         match self {
             Engine::Reference(s) => s.positions.iter().position(|p| !p.is_finite()),
+            Engine::Fast(s) => s.first_non_finite(),
         }
     }
 
@@ -105,6 +124,14 @@ impl Engine {
                 s.positions[index] = position;
                 s.previous[index] = previous;
             }
+            Engine::Fast(s) => s.set_particle(index, position, previous),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Engine::Reference(_) => "creation order, scalar, one thread".to_string(),
+            Engine::Fast(s) => s.describe(),
         }
     }
 }
@@ -134,6 +161,7 @@ pub struct Simulation {
     steps: u64,
     time: f64,
     diverged: Option<SimError>,
+    last_passes: u32,
 }
 
 /// The bars that can move: those not joining two fixed particles.
@@ -159,8 +187,21 @@ impl Simulation {
         let bars = active_bars(&mesh, &fixed);
         let positions = mesh.positions().to_vec();
         let previous = positions.clone();
-        let engine = Engine::new(kind, &positions, &previous, &fixed, &bars, params.mass);
-        Ok(Self { mesh, params, kind, fixed, bars, engine, positions, previous, steps: 0, time: 0.0, diverged: None })
+        let engine = Engine::new(kind, &mesh, (&positions, &previous), &fixed, &bars, params.mass);
+        Ok(Self {
+            mesh,
+            params,
+            kind,
+            fixed,
+            bars,
+            engine,
+            positions,
+            previous,
+            steps: 0,
+            time: 0.0,
+            diverged: None,
+            last_passes: 0,
+        })
     }
 
     /// Back to the mesh's initial state and time 0, keeping parameters and solver.
@@ -229,6 +270,15 @@ impl Simulation {
     pub fn projections_per_step(&self) -> u64 {
         self.bars.len() as u64 * u64::from(self.params.relaxations)
     }
+    /// Relaxation passes the last step made: `relaxations`, or fewer when the
+    /// tolerance ended it early.
+    pub fn last_passes(&self) -> u32 {
+        self.last_passes
+    }
+    /// How the solver in use works, in a few words (layout, SIMD, threads).
+    pub fn solver_description(&self) -> String {
+        self.engine.describe()
+    }
     /// The error that stopped the simulation, if it blew up.
     pub fn diverged(&self) -> Option<&SimError> {
         self.diverged.as_ref()
@@ -253,7 +303,7 @@ impl Simulation {
             }
             let displacement = self.params.displacement_of(force);
             let first_velocity = (self.steps == 0).then(|| self.mesh.velocities());
-            self.engine.step(&self.params, displacement, first_velocity);
+            self.last_passes = self.engine.step(&self.params, displacement, first_velocity);
             self.steps += 1;
             self.time += f64::from(self.params.dt);
             if let Some(particle) = self.engine.first_non_finite() {
@@ -336,7 +386,7 @@ impl Simulation {
     }
 
     fn rebuild_engine(&mut self) {
-        self.engine =
-            Engine::new(self.kind, &self.positions, &self.previous, &self.fixed, &self.bars, self.params.mass);
+        let state = (&self.positions[..], &self.previous[..]);
+        self.engine = Engine::new(self.kind, &self.mesh, state, &self.fixed, &self.bars, self.params.mass);
     }
 }
