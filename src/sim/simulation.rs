@@ -8,8 +8,9 @@ use serde::{Deserialize, Serialize};
 use super::fast::FastSolver;
 use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
-use super::params::{ParamError, SolverParams};
+use super::params::{ParamError, SolverParams, Start};
 use super::reference::ReferenceSolver;
+use super::tether::Tethers;
 
 /// Which solver advances the cloth. Both implement the same equations; they
 /// differ in order of work and speed (see [`super::reference`]).
@@ -65,6 +66,33 @@ pub enum SimError {
     },
 }
 
+/// Everything one substep of h/n needs, derived from [`SolverParams`] by
+/// [`Simulation`]; the solvers take it as it is.
+#[derive(Clone, Copy, Debug)]
+pub struct Substep<'a> {
+    /// h/n, seconds.
+    pub dt: f32,
+    /// 1 − δ_n, the share of last substep's motion that is kept.
+    pub keep: f32,
+    /// (h/n)² f / m: what the force adds to a free particle's displacement.
+    pub accel: Vec3,
+    /// For the very first substep: v₀ and the displacement added to h v₀
+    /// (zero for the seed's Euler start, ½ (h/n)² f/m for the second-order one).
+    pub first: Option<(&'a [Vec3], Vec3)>,
+    /// Passes over the bars.
+    pub relaxations: u32,
+    /// Relative strain that ends the passes early (0: off).
+    pub tolerance: f32,
+    /// ω, the over-relaxation of each projection.
+    pub over_relaxation: f32,
+    /// α m / (h/n)² for structural bars (0: rigid), dimensionless.
+    pub stretch_beta: f32,
+    /// α m / (h/n)² for bend bars.
+    pub bend_beta: f32,
+    /// The tether slack when tethers are on.
+    pub tether_slack: Option<f32>,
+}
+
 /// The solver's own state, whichever kind it is.
 #[derive(Clone, Debug)]
 enum Engine {
@@ -79,25 +107,19 @@ impl Engine {
         state: (&[Vec3], &[Vec3]),
         fixed: &[bool],
         bars: &[Bar],
-        mass: f32,
+        tethers: Option<Tethers>,
     ) -> Self {
         let (positions, previous) = state;
         match kind {
-            SolverKind::Reference => Engine::Reference(ReferenceSolver {
-                positions: positions.to_vec(),
-                previous: previous.to_vec(),
-                inverse_mass: fixed.iter().map(|&f| if f { 0.0 } else { 1.0 / mass }).collect(),
-                bars: bars.to_vec(),
-            }),
-            SolverKind::Fast => Engine::Fast(FastSolver::new(mesh, positions, previous, fixed, bars)),
+            SolverKind::Reference => Engine::Reference(ReferenceSolver::new(positions, previous, fixed, bars, tethers)),
+            SolverKind::Fast => Engine::Fast(FastSolver::new(mesh, positions, previous, fixed, bars, tethers)),
         }
     }
 
-    fn step(&mut self, params: &SolverParams, displacement: Vec3, first_velocity: Option<&[Vec3]>) -> u32 {
-        let p = params;
+    fn step(&mut self, substep: &Substep) -> u32 {
         match self {
-            Engine::Reference(s) => s.step(p.dt, p.damping, displacement, first_velocity, p.relaxations, p.tolerance),
-            Engine::Fast(s) => s.step(p.dt, p.damping, displacement, first_velocity, p.relaxations, p.tolerance),
+            Engine::Reference(s) => s.step(substep),
+            Engine::Fast(s) => s.step(substep),
         }
     }
 
@@ -187,7 +209,8 @@ impl Simulation {
         let bars = active_bars(&mesh, &fixed);
         let positions = mesh.positions().to_vec();
         let previous = positions.clone();
-        let engine = Engine::new(kind, &mesh, (&positions, &previous), &fixed, &bars, params.mass);
+        let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), &bars, &fixed));
+        let engine = Engine::new(kind, &mesh, (&positions, &previous), &fixed, &bars, tethers);
         Ok(Self {
             mesh,
             params,
@@ -224,9 +247,9 @@ impl Simulation {
     /// Changes the parameters; they apply from the next step on.
     pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
         params.validate()?;
-        let mass_changed = params.mass != self.params.mass;
+        let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
         self.params = params;
-        if mass_changed {
+        if tethers_toggled {
             self.rebuild_engine();
         }
         Ok(())
@@ -266,12 +289,12 @@ impl Simulation {
     pub fn bars(&self) -> &[Bar] {
         &self.bars
     }
-    /// Bar projections one step performs: bars × relaxations.
+    /// Bar projections one step performs: bars × relaxations × substeps.
     pub fn projections_per_step(&self) -> u64 {
-        self.bars.len() as u64 * u64::from(self.params.relaxations)
+        self.bars.len() as u64 * u64::from(self.params.relaxations) * u64::from(self.params.substeps)
     }
-    /// Relaxation passes the last step made: `relaxations`, or fewer when the
-    /// tolerance ended it early.
+    /// Relaxation passes the last substep made: `relaxations`, or fewer when
+    /// the tolerance ended it early.
     pub fn last_passes(&self) -> u32 {
         self.last_passes
     }
@@ -296,16 +319,40 @@ impl Simulation {
         if let Some(e) = &self.diverged {
             return Err(e.clone());
         }
+        let p = &self.params;
+        let dt = p.substep_dt();
+        let beta = |alpha: f32| alpha * p.mass / (dt * dt);
         for _ in 0..n {
-            let mut force = self.params.gravity;
-            if !self.params.wind.is_none() {
-                force += self.params.wind.force(self.time);
+            // The wind is sampled once per step, at its start.
+            let mut force = p.gravity;
+            if !p.wind.is_none() {
+                force += p.wind.force(self.time);
             }
-            let displacement = self.params.displacement_of(force);
-            let first_velocity = (self.steps == 0).then(|| self.mesh.velocities());
-            self.last_passes = self.engine.step(&self.params, displacement, first_velocity);
+            let accel = force * (dt * dt / p.mass);
+            let mut substep = Substep {
+                dt,
+                keep: 1.0 - p.substep_damping(),
+                accel,
+                first: None,
+                relaxations: p.relaxations,
+                tolerance: p.tolerance,
+                over_relaxation: p.over_relaxation,
+                stretch_beta: beta(p.stretch_compliance),
+                bend_beta: beta(p.bend_compliance),
+                tether_slack: p.tether_slack,
+            };
+            for k in 0..p.substeps {
+                substep.first = (self.steps == 0 && k == 0).then(|| {
+                    let extra = match p.start {
+                        Start::Euler => Vec3::ZERO,
+                        Start::SecondOrder => 0.5 * accel,
+                    };
+                    (self.mesh.velocities(), extra)
+                });
+                self.last_passes = self.engine.step(&substep);
+            }
             self.steps += 1;
-            self.time += f64::from(self.params.dt);
+            self.time += f64::from(p.dt);
             if let Some(particle) = self.engine.first_non_finite() {
                 let e = SimError::Diverged { step: self.steps, particle };
                 self.diverged = Some(e.clone());
@@ -387,6 +434,7 @@ impl Simulation {
 
     fn rebuild_engine(&mut self) {
         let state = (&self.positions[..], &self.previous[..]);
-        self.engine = Engine::new(self.kind, &self.mesh, state, &self.fixed, &self.bars, self.params.mass);
+        let tethers = self.params.tether_slack.map(|_| Tethers::new(self.positions.len(), &self.bars, &self.fixed));
+        self.engine = Engine::new(self.kind, &self.mesh, state, &self.fixed, &self.bars, tethers);
     }
 }

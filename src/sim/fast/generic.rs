@@ -10,8 +10,10 @@
 
 use glam::Vec3;
 
-use super::kernel::{FIXED, FREE, Point, Shares, excess, integrate, relax_pair, settle};
-use crate::sim::mesh::Bar;
+use super::kernel::{FIXED, FREE, Point, Shares, excess, integrate, relax_pair, settle, tether};
+use crate::sim::mesh::{Bar, BarKind};
+use crate::sim::simulation::Substep;
+use crate::sim::tether::Tethers;
 
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(16))]
@@ -25,6 +27,7 @@ struct ColouredBar {
     a: u32,
     b: u32,
     rest: f32,
+    bend: bool,
 }
 
 /// Particles in scene order, bars in colour order.
@@ -34,7 +37,10 @@ pub(crate) struct GenericLayout {
     displacement: Vec<[f32; 3]>,
     predicted: Vec<[f32; 3]>,
     bars: Vec<ColouredBar>,
+    /// μ = βλ of every bar (compliant bars only).
+    multipliers: Vec<f32>,
     colours: usize,
+    tethers: Option<Tethers>,
 }
 
 /// Most colours tracked; bars that find none free go in one last group, which
@@ -42,7 +48,13 @@ pub(crate) struct GenericLayout {
 const MAX_COLOURS: u32 = 63;
 
 impl GenericLayout {
-    pub(crate) fn new(positions: &[Vec3], previous: &[Vec3], fixed: &[bool], bars: &[Bar]) -> Self {
+    pub(crate) fn new(
+        positions: &[Vec3],
+        previous: &[Vec3],
+        fixed: &[bool],
+        bars: &[Bar],
+        tethers: Option<Tethers>,
+    ) -> Self {
         let mut used = vec![0u64; positions.len()];
         let mut coloured: Vec<(u32, usize)> = Vec::with_capacity(bars.len());
         for (i, bar) in bars.iter().enumerate() {
@@ -56,16 +68,23 @@ impl GenericLayout {
         }
         coloured.sort_by_key(|&(colour, i)| (colour, i));
         let colours = coloured.last().map_or(0, |&(c, _)| c as usize + 1);
-        let bars = coloured
+        let bars: Vec<ColouredBar> = coloured
             .iter()
-            .map(|&(_, i)| ColouredBar { a: bars[i].a, b: bars[i].b, rest: bars[i].rest_length })
+            .map(|&(_, i)| ColouredBar {
+                a: bars[i].a,
+                b: bars[i].b,
+                rest: bars[i].rest_length,
+                bend: bars[i].kind == BarKind::Bend,
+            })
             .collect();
         let mut layout = GenericLayout {
             particles: vec![Particle::default(); positions.len()],
             displacement: vec![[0.0; 3]; positions.len()],
             predicted: vec![[0.0; 3]; positions.len()],
+            multipliers: vec![0.0; bars.len()],
             bars,
             colours,
+            tethers,
         };
         for (i, p) in layout.particles.iter_mut().enumerate() {
             p.state = if fixed[i] { FIXED } else { FREE };
@@ -97,10 +116,10 @@ impl GenericLayout {
         self.displacement[index] = (position - previous).to_array();
     }
 
-    pub(crate) fn set_initial_velocity(&mut self, velocity: &[Vec3], dt: f32) {
+    fn set_initial_velocity(&mut self, velocity: &[Vec3], dt: f32, extra: Vec3) {
         for (i, (d, p)) in self.displacement.iter_mut().zip(&self.particles).enumerate() {
             if p.state == FREE {
-                *d = (velocity[i] * dt).to_array();
+                *d = (velocity[i] * dt + extra).to_array();
             }
         }
     }
@@ -109,17 +128,43 @@ impl GenericLayout {
         self.particles.iter().position(|p| !p.position.iter().all(|c| c.is_finite()))
     }
 
-    /// One step; see [`super::grid::GridLayout::step`].
-    pub(crate) fn step(&mut self, keep: f32, accel: Vec3, relaxations: u32, tolerance: f32) -> u32 {
-        let accel = accel.to_array();
+    /// One substep; see [`super::grid::GridLayout::step`].
+    pub(crate) fn step(&mut self, s: &Substep) -> u32 {
+        let (keep, accel) = match s.first {
+            Some((v0, extra)) => {
+                self.set_initial_velocity(v0, s.dt, extra);
+                (1.0, [0.0; 3])
+            }
+            None => (s.keep, s.accel.to_array()),
+        };
         for ((p, d), q) in self.particles.iter_mut().zip(&mut self.displacement).zip(&mut self.predicted) {
             *q = integrate(&mut p.position, d, p.state, keep, accel);
         }
+        if let (Some(tethers), Some(slack)) = (&self.tethers, s.tether_slack) {
+            for i in 0..self.particles.len() {
+                if let Some(anchor) = tethers.anchor[i] {
+                    let from = self.particles[anchor as usize].position;
+                    let p = &mut self.particles[i];
+                    tether(&mut p.position, from, tethers.length[i] * (1.0 + slack), p.state);
+                }
+            }
+        }
+        let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
+        if compliant {
+            self.multipliers.fill(0.0);
+        }
+        let shares =
+            [Shares::compliant(s.stretch_beta, s.over_relaxation), Shares::compliant(s.bend_beta, s.over_relaxation)];
+        let sweep = Sweep { shares, betas: [s.stretch_beta, s.bend_beta], tolerance: s.tolerance };
         let mut sweeps = 0;
-        for _ in 0..relaxations {
+        for _ in 0..s.relaxations {
             sweeps += 1;
-            let worst = relax_all(&mut self.particles, &self.bars, tolerance);
-            if tolerance > 0.0 && worst <= 0.0 {
+            let worst = if compliant {
+                relax_all::<true>(&mut self.particles, &self.bars, &mut self.multipliers, &sweep)
+            } else {
+                relax_all::<false>(&mut self.particles, &self.bars, &mut self.multipliers, &sweep)
+            };
+            if s.tolerance > 0.0 && worst <= 0.0 {
                 break;
             }
         }
@@ -130,18 +175,31 @@ impl GenericLayout {
     }
 }
 
+/// What a sweep needs, by bar kind (0 structural, 1 bend).
+struct Sweep {
+    shares: [Shares; 2],
+    betas: [f32; 2],
+    tolerance: f32,
+}
+
 /// One sweep over every bar; returns `max(|len − rest| − tolerance·rest)` over
 /// the bars that can move.
-fn relax_all(particles: &mut [Particle], bars: &[ColouredBar], tolerance: f32) -> f32 {
+fn relax_all<const XPBD: bool>(
+    particles: &mut [Particle],
+    bars: &[ColouredBar],
+    multipliers: &mut [f32],
+    sweep: &Sweep,
+) -> f32 {
     let mut worst = f32::NEG_INFINITY;
-    for bar in bars {
+    for (bar, mu) in bars.iter().zip(multipliers) {
+        let kind = usize::from(bar.bend);
         let (mut a, mut b) = (particles[bar.a as usize], particles[bar.b as usize]);
-        let (wa, wb) = (Shares::RIGID.weights(a.state), Shares::RIGID.weights(b.state));
-        let v = relax_pair(&mut a.position, wa, &mut b.position, wb, bar.rest);
+        let (wa, wb) = (sweep.shares[kind].weights(a.state), sweep.shares[kind].weights(b.state));
+        let v = relax_pair::<f32, XPBD>(&mut a.position, wa, &mut b.position, wb, bar.rest, mu, sweep.betas[kind]);
         particles[bar.a as usize] = a;
         particles[bar.b as usize] = b;
-        if tolerance > 0.0 {
-            worst = worst.max(excess(v, wa, wb, tolerance * bar.rest));
+        if sweep.tolerance > 0.0 {
+            worst = worst.max(excess(v, wa, wb, sweep.tolerance * bar.rest));
         }
     }
     worst

@@ -146,7 +146,7 @@ impl F32x8 {
 pub(crate) type Point<T> = [T; 3];
 
 /// The constants of `G(u)` above.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Shares {
     a: f32,
     b: f32,
@@ -160,6 +160,12 @@ impl Shares {
     pub(crate) const fn new(c1: f32, c2: f32) -> Self {
         let b = (c2 - 2.0 * c1) / 2.0;
         Shares { a: c1 - b, b }
+    }
+
+    /// The shares of a bar with compliance β (α m/h²) and over-relaxation ω:
+    /// c_k = ω / (k + β) for k free ends.
+    pub(crate) fn compliant(beta: f32, omega: f32) -> Self {
+        Shares::new(omega / (1.0 + beta), omega / (2.0 + beta))
     }
 
     /// The weights of a particle with state code `u`.
@@ -180,21 +186,53 @@ pub(crate) struct Weights<T> {
 }
 
 /// Projects one bar (the seed's Figure 3): moves `a` and `b` along the bar so
-/// their distance returns to `rest`, each by its share. Returns `|len − rest|`,
-/// the violation before the projection.
+/// their distance returns towards `rest`, each by its share. Returns
+/// `|len − rest|`, the violation before the projection.
+///
+/// With `XPBD`, the bar is compliant: `mu` (β·λ of [`crate::sim::relax`], in
+/// metres) accumulates over the passes of a substep and the correction aims
+/// at `C + mu` instead of C, so the bar settles at C = −mu where its spring
+/// holds the load; the shares then already carry the 1/(k + β) of XPBD.
 #[inline(always)]
-pub(crate) fn relax_pair<T: Real>(a: &mut Point<T>, wa: Weights<T>, b: &mut Point<T>, wb: Weights<T>, rest: T) -> T {
+pub(crate) fn relax_pair<T: Real, const XPBD: bool>(
+    a: &mut Point<T>,
+    wa: Weights<T>,
+    b: &mut Point<T>,
+    wb: Weights<T>,
+    rest: T,
+    mu: &mut T,
+    beta: T,
+) -> T {
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let violation = len - rest;
-    let c = violation / len.max(T::splat(TINY_LENGTH));
-    let ca = wa.own * wb.partner * c;
-    let cb = wb.own * wa.partner * c;
+    let target = if XPBD { violation + *mu } else { violation };
+    let c = target / len.max(T::splat(TINY_LENGTH));
+    let sa = wa.own * wb.partner;
+    let sb = wb.own * wa.partner;
+    let (ca, cb) = (sa * c, sb * c);
     for k in 0..3 {
         a[k] = a[k] + ca * d[k];
         b[k] = b[k] - cb * d[k];
     }
+    if XPBD {
+        // β Δλ = −β (C + βλ) / (k + β), and the larger share is ω/(k + β).
+        *mu = *mu - beta * target * sa.max(sb);
+    }
     violation.abs()
+}
+
+/// Pulls a particle back onto the sphere of radius `reach` around `anchor`
+/// if it is outside (a tether; `reach` is +∞ for particles without one).
+#[inline(always)]
+pub(crate) fn tether<T: Real>(x: &mut Point<T>, anchor: Point<T>, reach: T, u: T) {
+    let d = [x[0] - anchor[0], x[1] - anchor[1], x[2] - anchor[2]];
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let scale = reach / len.max(T::splat(TINY_LENGTH));
+    for k in 0..3 {
+        let pulled = anchor[k] + d[k] * scale;
+        x[k] = T::if_greater(len, reach, T::if_free(u, pulled, x[k]), x[k]);
+    }
 }
 
 /// How far a bar is beyond tolerance: `violation − slack` (slack =
@@ -235,9 +273,14 @@ pub(crate) fn settle<T: Real>(d: &mut Point<T>, x: Point<T>, predicted: Point<T>
 mod tests {
     use super::*;
 
+    /// A rigid projection: [`relax_pair`] without compliance.
+    fn relax_rigid<T: Real>(a: &mut Point<T>, wa: Weights<T>, b: &mut Point<T>, wb: Weights<T>, rest: T) -> T {
+        relax_pair::<T, false>(a, wa, b, wb, rest, &mut T::splat(0.0), T::splat(0.0))
+    }
+
     fn relax(a: [f32; 3], ua: f32, b: [f32; 3], ub: f32, rest: f32) -> ([f32; 3], [f32; 3]) {
         let (mut a, mut b) = (a, b);
-        relax_pair(&mut a, Shares::RIGID.weights(ua), &mut b, Shares::RIGID.weights(ub), rest);
+        relax_rigid(&mut a, Shares::RIGID.weights(ua), &mut b, Shares::RIGID.weights(ub), rest);
         (a, b)
     }
 
@@ -262,7 +305,7 @@ mod tests {
         let ub = F32x8([FREE, FIXED, FREE, ABSENT, FREE, FREE, FIXED, FREE]);
         let (a0, b0) = (a, b);
         let w = |u| Shares::RIGID.weights(u);
-        relax_pair(&mut a, w(ua), &mut b, w(ub), F32x8::splat(0.8));
+        relax_rigid(&mut a, w(ua), &mut b, w(ub), F32x8::splat(0.8));
         for l in 0..LANES {
             let (sa, sb) = relax(
                 [a0[0].0[l], a0[1].0[l], a0[2].0[l]],
@@ -274,6 +317,43 @@ mod tests {
             assert_eq!(sa, [a[0].0[l], a[1].0[l], a[2].0[l]], "lane {l}");
             assert_eq!(sb, [b[0].0[l], b[1].0[l], b[2].0[l]], "lane {l}");
         }
+    }
+
+    #[test]
+    fn compliant_projection_matches_the_reference_formula() {
+        // The shares-and-μ form against crate::sim::relax's λ form, over a
+        // few passes with β = 0.7, ω = 1.3, free–free and free–fixed.
+        for (ua, wa) in [(FREE, 1.0f32), (FIXED, 0.0)] {
+            let (beta, omega, rest) = (0.7f32, 1.3f32, 1.0f32);
+            let shares = Shares::compliant(beta, omega);
+            let (mut a, mut b, mut mu) = ([0.0f32, 0.0, 0.0], [1.8f32, 0.3, -0.2], 0.0f32);
+            let (mut ra, mut rb, mut lambda) = (glam::Vec3::from(a), glam::Vec3::from(b), 0.0f32);
+            for _ in 0..5 {
+                relax_pair::<f32, true>(&mut a, shares.weights(ua), &mut b, shares.weights(FREE), rest, &mut mu, beta);
+                let (da, db) =
+                    crate::sim::relax::project_bar_compliant(ra, rb, rest, wa, 1.0, beta, &mut lambda, omega);
+                (ra, rb) = (ra + da, rb + db);
+            }
+            assert!((glam::Vec3::from(a) - ra).length() < 1e-6 && (glam::Vec3::from(b) - rb).length() < 1e-6);
+            assert!((mu - beta * lambda).abs() < 1e-6, "μ {mu} vs βλ {}", beta * lambda);
+        }
+    }
+
+    #[test]
+    fn tether_pulls_back_only_free_particles_that_are_too_far() {
+        let anchor = [0.0f32; 3];
+        let mut far = [3.0f32, 4.0, 0.0];
+        tether(&mut far, anchor, 2.5, FREE);
+        assert!((far[0] - 1.5).abs() < 1e-6 && (far[1] - 2.0).abs() < 1e-6, "{far:?}");
+        let mut near = [1.0f32, 1.0, 0.0];
+        tether(&mut near, anchor, 2.5, FREE);
+        assert_eq!(near, [1.0, 1.0, 0.0]);
+        let mut fixed = [3.0f32, 4.0, 0.0];
+        tether(&mut fixed, anchor, 2.5, FIXED);
+        assert_eq!(fixed, [3.0, 4.0, 0.0]);
+        let mut untied = [3.0f32, 4.0, 0.0];
+        tether(&mut untied, anchor, f32::INFINITY, FREE);
+        assert_eq!(untied, [3.0, 4.0, 0.0]);
     }
 
     #[test]

@@ -45,6 +45,8 @@ mod kernel;
 use glam::Vec3;
 
 use super::mesh::{Bar, ClothMesh};
+use super::simulation::Substep;
+use super::tether::Tethers;
 use generic::GenericLayout;
 use grid::GridLayout;
 
@@ -65,42 +67,28 @@ impl FastSolver {
     /// Lays out the state for speed: the lane layout for a grid mesh, the
     /// coloured layout otherwise. `bars` are the bars to relax (used by the
     /// coloured layout; the lane layout derives them from the grid).
-    pub fn new(mesh: &ClothMesh, positions: &[Vec3], previous: &[Vec3], fixed: &[bool], bars: &[Bar]) -> Self {
+    pub fn new(
+        mesh: &ClothMesh,
+        positions: &[Vec3],
+        previous: &[Vec3],
+        fixed: &[bool],
+        bars: &[Bar],
+        tethers: Option<Tethers>,
+    ) -> Self {
         let parallel = positions.len() >= grid::PARALLEL_PARTICLES;
-        let layout = match GridLayout::new(mesh, positions, previous, fixed) {
+        let layout = match GridLayout::new(mesh, positions, previous, fixed, tethers.clone()) {
             Some(g) => Layout::Grid(g),
-            None => Layout::Generic(GenericLayout::new(positions, previous, fixed, bars)),
+            None => Layout::Generic(GenericLayout::new(positions, previous, fixed, bars, tethers)),
         };
         Self { layout, parallel }
     }
 
-    /// One step: equation 2 when `first_velocity` is given (with `dt`),
-    /// equation 1 otherwise (`keep = 1 − δ`, `displacement = h²f/m`), then up
-    /// to `relaxations` sweeps (fewer when `tolerance > 0` is met). Returns the
-    /// sweeps done.
-    pub fn step(
-        &mut self,
-        dt: f32,
-        damping: f32,
-        displacement: Vec3,
-        first_velocity: Option<&[Vec3]>,
-        relaxations: u32,
-        tolerance: f32,
-    ) -> u32 {
-        let (keep, accel) = match first_velocity {
-            Some(v0) => {
-                match &mut self.layout {
-                    Layout::Grid(g) => g.set_initial_velocity(v0, dt),
-                    Layout::Generic(g) => g.set_initial_velocity(v0, dt),
-                }
-                (1.0, Vec3::ZERO)
-            }
-            None => (1.0 - damping, displacement),
-        };
+    /// One substep (see [`Substep`]). Returns the relaxation passes done.
+    pub fn step(&mut self, substep: &Substep) -> u32 {
         let parallel = self.parallel && rayon::current_num_threads() > 1;
         match &mut self.layout {
-            Layout::Grid(g) => g.step(keep, accel, relaxations, tolerance, parallel),
-            Layout::Generic(g) => g.step(keep, accel, relaxations, tolerance),
+            Layout::Grid(g) => g.step(substep, parallel),
+            Layout::Generic(g) => g.step(substep),
         }
     }
 
