@@ -55,7 +55,7 @@ struct SolverOverrides {
     /// Particle mass m in kilograms.
     #[arg(long)]
     mass: Option<f32>,
-    /// Solver: reference.
+    /// Solver: fast or reference.
     #[arg(long, value_parser = parse_solver)]
     solver: Option<SolverKind>,
 }

@@ -130,7 +130,12 @@ fn relaxation_converges_as_passes_grow() {
             sim.step().unwrap();
             let s = sim.strain().max;
             results.push((k, s));
-            assert!(s <= last * 1.0001, "{kind:?}: max strain grew from {last} to {s} at {k} passes: {results:?}");
+            // Below 2e-6 the strain is f32 round-off (ulp of 1 m is 1.2e-7,
+            // divided by 0.13 m bars) and may wobble.
+            assert!(
+                s <= last * 1.0001 || s < 2e-6,
+                "{kind:?}: max strain grew from {last} to {s} at {k} passes: {results:?}"
+            );
             last = s;
         }
         assert!(results[0].1 > 0.05, "{kind:?}: one pass should leave visible strain: {results:?}");

@@ -8,7 +8,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::{CameraHint, Origin, Scene, SceneErrorKind, bundled};
-use crate::sim::{ClothMesh, Grid, GridPlane, Pins, SolverKind, SolverParams, Wind};
+use crate::sim::{ClothMesh, Grid, GridPlane, Pins, SolverKind, SolverParams, Start, Wind};
 
 /// A scene file as written. See the README for every key.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -50,8 +50,22 @@ pub struct SolverTable {
     pub mass: f32,
     /// f_g, newtons.
     pub gravity: [f32; 3],
-    /// `reference` (more solvers come with later versions).
+    /// `fast` (default) or `reference`.
     pub method: SolverKind,
+    /// Relative strain below which relaxation stops early (0: off).
+    pub tolerance: f32,
+    /// Substeps per step.
+    pub substeps: u32,
+    /// XPBD compliance of structural bars, m/N.
+    pub stretch_compliance: f32,
+    /// XPBD compliance of bend bars, m/N.
+    pub bend_compliance: f32,
+    /// ω, over-relaxation.
+    pub over_relaxation: f32,
+    /// Tethers on with this slack; absent is off.
+    pub tether_slack: Option<f32>,
+    /// `euler` or `second-order`.
+    pub start: Start,
 }
 
 impl Default for SolverTable {
@@ -64,6 +78,13 @@ impl Default for SolverTable {
             mass: p.mass,
             gravity: p.gravity.to_array(),
             method: SolverKind::default(),
+            tolerance: p.tolerance,
+            substeps: p.substeps,
+            stretch_compliance: p.stretch_compliance,
+            bend_compliance: p.bend_compliance,
+            over_relaxation: p.over_relaxation,
+            tether_slack: p.tether_slack,
+            start: p.start,
         }
     }
 }
@@ -246,6 +267,13 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         mass: s.mass,
         gravity: vec3(s.gravity),
         wind,
+        tolerance: s.tolerance,
+        substeps: s.substeps,
+        stretch_compliance: s.stretch_compliance,
+        bend_compliance: s.bend_compliance,
+        over_relaxation: s.over_relaxation,
+        tether_slack: s.tether_slack,
+        start: s.start,
     };
     params.validate().map_err(|e| {
         let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };

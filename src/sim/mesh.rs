@@ -181,6 +181,10 @@ pub struct MeshParts {
     pub fixed: Vec<bool>,
     /// Bars as particle pairs, in the order the relaxation visits them.
     pub bars: Vec<(u32, u32, BarKind)>,
+    /// The bars' rest lengths when the builder knows them exactly (a grid:
+    /// spacing, √2·spacing, 2·spacing); empty means the distance between the
+    /// (f32-rounded) positions.
+    pub rest_lengths: Vec<f32>,
     /// Triangles for drawing (may be empty: the viewer then draws bars).
     pub triangles: Vec<[u32; 3]>,
     /// Set when the particles form a grid in row-major order.
@@ -214,7 +218,10 @@ impl ClothMesh {
     /// Checks and assembles a mesh from its parts; computes every bar's rest
     /// length from the positions.
     pub fn new(parts: MeshParts) -> Result<Self, MeshError> {
-        let MeshParts { positions, mut velocities, mut fixed, bars, triangles, grid } = parts;
+        let MeshParts { positions, mut velocities, mut fixed, bars, rest_lengths, triangles, grid } = parts;
+        if !rest_lengths.is_empty() && rest_lengths.len() != bars.len() {
+            return Err(MeshError::WrongLength { what: "rest lengths", got: rest_lengths.len(), expected: bars.len() });
+        }
         let n = positions.len();
         if n == 0 {
             return Err(MeshError::Empty);
@@ -254,7 +261,10 @@ impl ClothMesh {
             if !seen.insert((a.min(b), a.max(b))) {
                 return Err(MeshError::DuplicateBar { a, b });
             }
-            let rest_length = positions[a as usize].distance(positions[b as usize]);
+            let rest_length = match rest_lengths.get(i) {
+                Some(&l) => l,
+                None => positions[a as usize].distance(positions[b as usize]),
+            };
             if !(rest_length.is_normal() && rest_length > 0.0) {
                 return Err(MeshError::ZeroLengthBar { a, b });
             }
@@ -322,6 +332,7 @@ impl ClothMesh {
             velocities: velocities.unwrap_or_default(),
             fixed: fixed_flags,
             bars,
+            rest_lengths: Vec::new(),
             triangles: Vec::new(),
             grid: None,
         })
@@ -384,6 +395,7 @@ impl ClothMesh {
             velocities: velocities.unwrap_or_default(),
             fixed: fixed_flags,
             bars,
+            rest_lengths: Vec::new(),
             triangles,
             grid: None,
         })
@@ -613,7 +625,24 @@ impl Grid {
                 triangles.push([right, below, diag]);
             }
         }
-        ClothMesh::new(MeshParts { positions, velocities: Vec::new(), fixed, bars, triangles, grid: Some(shape) })
+        // Rest lengths from the exact grid geometry, not from positions that
+        // were rounded to f32 (which would scatter them by ~1e-7 relative).
+        let rest_lengths = bars
+            .iter()
+            .map(|&(a, b, _)| {
+                let (dc, dr) = (i64::from(a % cols) - i64::from(b % cols), i64::from(a / cols) - i64::from(b / cols));
+                (f64::from(s) * ((dc * dc + dr * dr) as f64).sqrt()) as f32
+            })
+            .collect();
+        ClothMesh::new(MeshParts {
+            positions,
+            velocities: Vec::new(),
+            fixed,
+            bars,
+            rest_lengths,
+            triangles,
+            grid: Some(shape),
+        })
     }
 }
 

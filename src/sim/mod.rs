@@ -54,20 +54,24 @@
 //! - [`mesh`]: particles, bars, triangles; grids, adjacency lists, triangle meshes.
 //! - [`simulation`]: [`Simulation`], the clock and the public state.
 //! - [`reference`]: the seed's loops written plainly, the yardstick.
+//! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
+//! - [`tether`]: long-range attachments that bound stretch.
 //! - [`exact`]: exact answers (discrete free fall, pendulum, catenary) for tests and error measures.
 
 pub mod exact;
+pub mod fast;
 pub mod mesh;
 pub mod metrics;
 pub mod params;
 pub mod reference;
 pub mod relax;
 pub mod simulation;
+pub mod tether;
 pub mod wind;
 
 pub use mesh::{Bar, BarKind, ClothMesh, Grid, GridPlane, GridShape, MeshError, MeshParts, Pins};
 pub use metrics::Strain;
-pub use params::{ParamError, SolverParams};
-pub use simulation::{SimError, Simulation, SolverKind};
+pub use params::{ParamError, SolverParams, Start};
+pub use simulation::{SimError, Simulation, SolverKind, Substep};
 pub use wind::Wind;

@@ -11,60 +11,91 @@
 //! The state is an array of structures (`Vec<Vec3>`) and every loop is scalar.
 //! Consecutive bars share particles, so each projection waits for the one
 //! before it: this is the latency-bound loop that [`super::fast`] is measured
-//! against, and the order every faster solver must agree with.
+//! against. The accuracy options ([`super::params`]: substeps, compliance,
+//! over-relaxation, tethers) are written the same plain way, so that every
+//! method can be compared on both solvers.
 
 use glam::Vec3;
 
-use super::mesh::Bar;
-use super::relax::project_bar;
+use super::mesh::{Bar, BarKind};
+use super::relax::{project_bar, project_bar_compliant};
+use super::simulation::Substep;
+use super::tether::Tethers;
 
 /// The seed-faithful solver's state, in scene order.
 #[derive(Clone, Debug)]
 pub struct ReferenceSolver {
     /// x_i: current positions, metres.
     pub positions: Vec<Vec3>,
-    /// x_{i−1}: positions one step ago, metres.
+    /// x_{i−1}: positions one (sub)step ago, metres.
     pub previous: Vec<Vec3>,
-    /// 1/m for a free particle, 0 for a fixed one, 1/kg.
+    /// Inverse mass relative to a free particle: 1 if free, 0 if fixed. All
+    /// particles weigh the same, so the projection only needs the ratio; the
+    /// force enters through [`Substep::accel`], which is already divided by m.
     pub inverse_mass: Vec<f32>,
     /// The bars that can move (none joins two fixed particles), in creation order.
     pub bars: Vec<Bar>,
+    /// λ of every bar (XPBD), reset every substep; unused for rigid bars.
+    pub lambda: Vec<f32>,
+    /// Attachments, when tethers are on.
+    pub tethers: Option<Tethers>,
 }
 
 impl ReferenceSolver {
-    /// One step: integrate (equation 1, or equation 2 when `first`), then relax.
-    ///
-    /// `displacement` is `h²/m · f` for the step's force (equations 3–5), the
-    /// same for every particle; `first_velocity` gives v₀ for equation 2.
-    pub fn step(
-        &mut self,
-        dt: f32,
-        damping: f32,
-        displacement: Vec3,
-        first_velocity: Option<&[Vec3]>,
-        relaxations: u32,
-    ) {
-        let keep = 1.0 - damping;
+    /// The solver for this state and these bars.
+    pub fn new(positions: &[Vec3], previous: &[Vec3], fixed: &[bool], bars: &[Bar], tethers: Option<Tethers>) -> Self {
+        Self {
+            positions: positions.to_vec(),
+            previous: previous.to_vec(),
+            inverse_mass: fixed.iter().map(|&f| if f { 0.0 } else { 1.0 }).collect(),
+            bars: bars.to_vec(),
+            lambda: vec![0.0; bars.len()],
+            tethers,
+        }
+    }
+
+    /// One substep: integrate (equation 1, or equation 2 for the first),
+    /// pull tethered particles back within reach, then relax `relaxations`
+    /// times, or fewer once a pass finds every bar within `tolerance`
+    /// (relative) before projecting it, when `tolerance > 0`. Returns the
+    /// passes done.
+    pub fn step(&mut self, s: &Substep) -> u32 {
         for i in 0..self.positions.len() {
             if self.inverse_mass[i] == 0.0 {
                 continue;
             }
             let x = self.positions[i];
-            let next = match first_velocity {
-                // Equation 2: x₁ = x₀ + h v₀.
-                Some(v0) => x + dt * v0[i],
+            let next = match s.first {
+                // Equation 2: x₁ = x₀ + h v₀ (+ ½h²f/m for the second-order start).
+                Some((v0, extra)) => x + s.dt * v0[i] + extra,
                 // Equation 1: x_{i+1} = x_i + (1 − δ)(x_i − x_{i−1}) + h²/m f.
-                None => x + keep * (x - self.previous[i]) + displacement,
+                None => x + s.keep * (x - self.previous[i]) + s.accel,
             };
             self.previous[i] = x;
             self.positions[i] = next;
         }
-        for _ in 0..relaxations {
-            self.relax_once();
+        if let (Some(tethers), Some(slack)) = (&self.tethers, s.tether_slack) {
+            apply_tethers(&mut self.positions, tethers, slack);
         }
+        let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
+        if compliant {
+            self.lambda.fill(0.0);
+        }
+        let mut passes = 0;
+        for _ in 0..s.relaxations {
+            passes += 1;
+            let plain = !compliant && s.over_relaxation == 1.0 && s.tolerance <= 0.0;
+            if plain {
+                self.relax_once();
+            } else if self.relax_once_general(s) <= s.tolerance {
+                break;
+            }
+        }
+        passes
     }
 
-    /// One relaxation pass over every bar, in creation order.
+    /// One relaxation pass over every bar, in creation order: the seed's
+    /// Figure 3 with rigid bars and no over-relaxation.
     pub fn relax_once(&mut self) {
         for bar in &self.bars {
             let (a, b) = (bar.a as usize, bar.b as usize);
@@ -72,6 +103,41 @@ impl ReferenceSolver {
             let (da, db) = project_bar(self.positions[a], self.positions[b], bar.rest_length, wa, wb);
             self.positions[a] += da;
             self.positions[b] += db;
+        }
+    }
+
+    /// One pass with compliance and over-relaxation; returns the largest
+    /// relative strain met before a projection (0 when there are no bars).
+    fn relax_once_general(&mut self, s: &Substep) -> f32 {
+        let mut worst = 0.0f32;
+        for (bar, lambda) in self.bars.iter().zip(&mut self.lambda) {
+            let (a, b) = (bar.a as usize, bar.b as usize);
+            let (wa, wb) = (self.inverse_mass[a], self.inverse_mass[b]);
+            let (xa, xb) = (self.positions[a], self.positions[b]);
+            worst = worst.max((xa.distance(xb) - bar.rest_length).abs() / bar.rest_length);
+            let beta = match bar.kind {
+                BarKind::Structural => s.stretch_beta,
+                BarKind::Bend => s.bend_beta,
+            };
+            let (da, db) = project_bar_compliant(xa, xb, bar.rest_length, wa, wb, beta, lambda, s.over_relaxation);
+            self.positions[a] += da;
+            self.positions[b] += db;
+        }
+        worst
+    }
+}
+
+/// Moves every tethered particle that is farther from its anchor than
+/// `(1 + slack)` times its rest path length back onto that sphere.
+pub fn apply_tethers(positions: &mut [Vec3], tethers: &Tethers, slack: f32) {
+    for i in 0..positions.len() {
+        if let Some(anchor) = tethers.anchor[i] {
+            let reach = tethers.length[i] * (1.0 + slack);
+            let d = positions[i] - positions[anchor as usize];
+            let len = d.length();
+            if len > reach {
+                positions[i] = positions[anchor as usize] + d * (reach / len);
+            }
         }
     }
 }

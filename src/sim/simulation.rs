@@ -5,28 +5,35 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::fast::FastSolver;
 use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
-use super::params::{ParamError, SolverParams};
+use super::params::{ParamError, SolverParams, Start};
 use super::reference::ReferenceSolver;
+use super::tether::Tethers;
 
 /// Which solver advances the cloth. Both implement the same equations; they
 /// differ in order of work and speed (see [`super::reference`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SolverKind {
-    /// The seed's loops as written: scalar, bars in creation order.
+    /// The same equations ordered for speed: coloured, SIMD lanes, threads for
+    /// large grids ([`super::fast`]).
     #[default]
+    Fast,
+    /// The seed's loops as written: scalar, bars in creation order
+    /// ([`super::reference`]).
     Reference,
 }
 
 impl SolverKind {
     /// Every solver, for menus and benchmarks.
-    pub const ALL: [SolverKind; 1] = [SolverKind::Reference];
+    pub const ALL: [SolverKind; 2] = [SolverKind::Fast, SolverKind::Reference];
 
     /// A short name, as accepted by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
+            SolverKind::Fast => "fast",
             SolverKind::Reference => "reference",
         }
     }
@@ -59,28 +66,60 @@ pub enum SimError {
     },
 }
 
+/// Everything one substep of h/n needs, derived from [`SolverParams`] by
+/// [`Simulation`]; the solvers take it as it is.
+#[derive(Clone, Copy, Debug)]
+pub struct Substep<'a> {
+    /// h/n, seconds.
+    pub dt: f32,
+    /// 1 − δ_n, the share of last substep's motion that is kept.
+    pub keep: f32,
+    /// (h/n)² f / m: what the force adds to a free particle's displacement.
+    pub accel: Vec3,
+    /// For the very first substep: v₀ and the displacement added to h v₀
+    /// (zero for the seed's Euler start, ½ (h/n)² f/m for the second-order one).
+    pub first: Option<(&'a [Vec3], Vec3)>,
+    /// Passes over the bars.
+    pub relaxations: u32,
+    /// Relative strain that ends the passes early (0: off).
+    pub tolerance: f32,
+    /// ω, the over-relaxation of each projection.
+    pub over_relaxation: f32,
+    /// α m / (h/n)² for structural bars (0: rigid), dimensionless.
+    pub stretch_beta: f32,
+    /// α m / (h/n)² for bend bars.
+    pub bend_beta: f32,
+    /// The tether slack when tethers are on.
+    pub tether_slack: Option<f32>,
+}
+
 /// The solver's own state, whichever kind it is.
 #[derive(Clone, Debug)]
 enum Engine {
     Reference(ReferenceSolver),
+    Fast(FastSolver),
 }
 
 impl Engine {
-    fn new(kind: SolverKind, positions: &[Vec3], previous: &[Vec3], fixed: &[bool], bars: &[Bar], mass: f32) -> Self {
-        let inverse_mass = fixed.iter().map(|&f| if f { 0.0 } else { 1.0 / mass }).collect();
+    fn new(
+        kind: SolverKind,
+        mesh: &ClothMesh,
+        state: (&[Vec3], &[Vec3]),
+        fixed: &[bool],
+        bars: &[Bar],
+        tethers: Option<Tethers>,
+    ) -> Self {
+        let (positions, previous) = state;
         match kind {
-            SolverKind::Reference => Engine::Reference(ReferenceSolver {
-                positions: positions.to_vec(),
-                previous: previous.to_vec(),
-                inverse_mass,
-                bars: bars.to_vec(),
-            }),
+            SolverKind::Reference => Engine::Reference(ReferenceSolver::new(positions, previous, fixed, bars, tethers)),
+            SolverKind::Fast => Engine::Fast(FastSolver::new(mesh, positions, previous, fixed, bars, tethers)),
         }
     }
 
-    fn step(&mut self, params: &SolverParams, displacement: Vec3, first_velocity: Option<&[Vec3]>) {
+    fn step(&mut self, substep: &Substep) -> u32 {
         match self {
-            Engine::Reference(s) => s.step(params.dt, params.damping, displacement, first_velocity, params.relaxations),
+            Engine::Reference(s) => s.step(substep),
+            Engine::Fast(s) => s.step(substep),
         }
     }
 
@@ -90,12 +129,14 @@ impl Engine {
                 positions.copy_from_slice(&s.positions);
                 previous.copy_from_slice(&s.previous);
             }
+            Engine::Fast(s) => s.read(positions, previous),
         }
     }
 
     fn first_non_finite(&self) -> Option<usize> {
         match self {
             Engine::Reference(s) => s.positions.iter().position(|p| !p.is_finite()),
+            Engine::Fast(s) => s.first_non_finite(),
         }
     }
 
@@ -105,6 +146,14 @@ impl Engine {
                 s.positions[index] = position;
                 s.previous[index] = previous;
             }
+            Engine::Fast(s) => s.set_particle(index, position, previous),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Engine::Reference(_) => "creation order, scalar, one thread".to_string(),
+            Engine::Fast(s) => s.describe(),
         }
     }
 }
@@ -134,6 +183,7 @@ pub struct Simulation {
     steps: u64,
     time: f64,
     diverged: Option<SimError>,
+    last_passes: u32,
 }
 
 /// The bars that can move: those not joining two fixed particles.
@@ -159,8 +209,22 @@ impl Simulation {
         let bars = active_bars(&mesh, &fixed);
         let positions = mesh.positions().to_vec();
         let previous = positions.clone();
-        let engine = Engine::new(kind, &positions, &previous, &fixed, &bars, params.mass);
-        Ok(Self { mesh, params, kind, fixed, bars, engine, positions, previous, steps: 0, time: 0.0, diverged: None })
+        let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), &bars, &fixed));
+        let engine = Engine::new(kind, &mesh, (&positions, &previous), &fixed, &bars, tethers);
+        Ok(Self {
+            mesh,
+            params,
+            kind,
+            fixed,
+            bars,
+            engine,
+            positions,
+            previous,
+            steps: 0,
+            time: 0.0,
+            diverged: None,
+            last_passes: 0,
+        })
     }
 
     /// Back to the mesh's initial state and time 0, keeping parameters and solver.
@@ -183,9 +247,9 @@ impl Simulation {
     /// Changes the parameters; they apply from the next step on.
     pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
         params.validate()?;
-        let mass_changed = params.mass != self.params.mass;
+        let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
         self.params = params;
-        if mass_changed {
+        if tethers_toggled {
             self.rebuild_engine();
         }
         Ok(())
@@ -225,9 +289,18 @@ impl Simulation {
     pub fn bars(&self) -> &[Bar] {
         &self.bars
     }
-    /// Bar projections one step performs: bars × relaxations.
+    /// Bar projections one step performs: bars × relaxations × substeps.
     pub fn projections_per_step(&self) -> u64 {
-        self.bars.len() as u64 * u64::from(self.params.relaxations)
+        self.bars.len() as u64 * u64::from(self.params.relaxations) * u64::from(self.params.substeps)
+    }
+    /// Relaxation passes the last substep made: `relaxations`, or fewer when
+    /// the tolerance ended it early.
+    pub fn last_passes(&self) -> u32 {
+        self.last_passes
+    }
+    /// How the solver in use works, in a few words (layout, SIMD, threads).
+    pub fn solver_description(&self) -> String {
+        self.engine.describe()
     }
     /// The error that stopped the simulation, if it blew up.
     pub fn diverged(&self) -> Option<&SimError> {
@@ -246,16 +319,40 @@ impl Simulation {
         if let Some(e) = &self.diverged {
             return Err(e.clone());
         }
+        let p = &self.params;
+        let dt = p.substep_dt();
+        let beta = |alpha: f32| alpha * p.mass / (dt * dt);
         for _ in 0..n {
-            let mut force = self.params.gravity;
-            if !self.params.wind.is_none() {
-                force += self.params.wind.force(self.time);
+            // The wind is sampled once per step, at its start.
+            let mut force = p.gravity;
+            if !p.wind.is_none() {
+                force += p.wind.force(self.time);
             }
-            let displacement = self.params.displacement_of(force);
-            let first_velocity = (self.steps == 0).then(|| self.mesh.velocities());
-            self.engine.step(&self.params, displacement, first_velocity);
+            let accel = force * (dt * dt / p.mass);
+            let mut substep = Substep {
+                dt,
+                keep: 1.0 - p.substep_damping(),
+                accel,
+                first: None,
+                relaxations: p.relaxations,
+                tolerance: p.tolerance,
+                over_relaxation: p.over_relaxation,
+                stretch_beta: beta(p.stretch_compliance),
+                bend_beta: beta(p.bend_compliance),
+                tether_slack: p.tether_slack,
+            };
+            for k in 0..p.substeps {
+                substep.first = (self.steps == 0 && k == 0).then(|| {
+                    let extra = match p.start {
+                        Start::Euler => Vec3::ZERO,
+                        Start::SecondOrder => 0.5 * accel,
+                    };
+                    (self.mesh.velocities(), extra)
+                });
+                self.last_passes = self.engine.step(&substep);
+            }
             self.steps += 1;
-            self.time += f64::from(self.params.dt);
+            self.time += f64::from(p.dt);
             if let Some(particle) = self.engine.first_non_finite() {
                 let e = SimError::Diverged { step: self.steps, particle };
                 self.diverged = Some(e.clone());
@@ -336,7 +433,8 @@ impl Simulation {
     }
 
     fn rebuild_engine(&mut self) {
-        self.engine =
-            Engine::new(self.kind, &self.positions, &self.previous, &self.fixed, &self.bars, self.params.mass);
+        let state = (&self.positions[..], &self.previous[..]);
+        let tethers = self.params.tether_slack.map(|_| Tethers::new(self.positions.len(), &self.bars, &self.fixed));
+        self.engine = Engine::new(self.kind, &self.mesh, state, &self.fixed, &self.bars, tethers);
     }
 }

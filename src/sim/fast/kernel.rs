@@ -1,0 +1,379 @@
+//! The arithmetic of one bar projection and one integration, written once and
+//! instantiated for a single `f32` (seams, the coloured path) and for eight
+//! lanes [`F32x8`] (the lane layout), so every path computes bit-identical
+//! values for the same inputs.
+//!
+//! Every particle carries a state code `u`: 0 absent (padding of the lane
+//! layout), 1 fixed, 2 free. With equal masses the share of a correction a
+//! bar end takes is
+//!
+//! ```text
+//! s_a = [u_a = 2] · G(u_b),   G(0) = 0,  G(1) = c₁,  G(2) = c₂
+//! G(u) = u · (A + B·u),       B = (c₂ − 2c₁)/2,  A = c₁ − B
+//! ```
+//!
+//! with c₁ = 1 (partner fixed: the free end moves the whole way) and
+//! c₂ = ½ (partner free: each moves half), and `[u_a = 2] = max(u_a − 1, 0)`.
+//! A bar to an absent or fixed particle is thus handled without a branch and
+//! the lane loops compile to straight SIMD code.
+
+use std::ops::{Add, Div, Mul, Sub};
+
+/// State code of a particle that does not exist (lane padding).
+pub(crate) const ABSENT: f32 = 0.0;
+/// State code of a fixed particle.
+pub(crate) const FIXED: f32 = 1.0;
+/// State code of a free particle.
+pub(crate) const FREE: f32 = 2.0;
+
+/// Lengths below this are treated as this when dividing: a bar of zero length
+/// then gets a finite factor times a zero direction, so no NaN appears.
+const TINY_LENGTH: f32 = 1e-20;
+
+/// Lanes of [`F32x8`].
+pub(crate) const LANES: usize = 8;
+
+/// The operations the kernels need, for `f32` and for eight lanes of it.
+pub(crate) trait Real:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
+    fn splat(v: f32) -> Self;
+    fn sqrt(self) -> Self;
+    /// `if self > other { self } else { other }` (same rule for both types).
+    fn max(self, other: Self) -> Self;
+    fn abs(self) -> Self;
+    /// `if u == FREE { then } else { otherwise }`, lane by lane.
+    fn if_free(u: Self, then: Self, otherwise: Self) -> Self;
+    /// `if a > b { then } else { otherwise }`, lane by lane.
+    fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        if self > other { self } else { other }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn if_free(u: Self, then: Self, otherwise: Self) -> Self {
+        if u == FREE { then } else { otherwise }
+    }
+    #[inline(always)]
+    fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+        if a > b { then } else { otherwise }
+    }
+}
+
+/// Eight `f32` lanes; every operation is a loop over the lanes that the
+/// compiler turns into one vector instruction.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(32))]
+pub(crate) struct F32x8(pub(crate) [f32; LANES]);
+
+macro_rules! lanewise {
+    ($trait:ident, $method:ident, $op:tt) => {
+        impl $trait for F32x8 {
+            type Output = F32x8;
+            #[inline(always)]
+            fn $method(self, rhs: F32x8) -> F32x8 {
+                F32x8(std::array::from_fn(|l| self.0[l] $op rhs.0[l]))
+            }
+        }
+    };
+}
+lanewise!(Add, add, +);
+lanewise!(Sub, sub, -);
+lanewise!(Mul, mul, *);
+lanewise!(Div, div, /);
+
+impl Real for F32x8 {
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        F32x8([v; LANES])
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        F32x8(self.0.map(f32::sqrt))
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        F32x8(std::array::from_fn(|l| Real::max(self.0[l], other.0[l])))
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        F32x8(self.0.map(f32::abs))
+    }
+    #[inline(always)]
+    fn if_free(u: Self, then: Self, otherwise: Self) -> Self {
+        F32x8(std::array::from_fn(|l| Real::if_free(u.0[l], then.0[l], otherwise.0[l])))
+    }
+    #[inline(always)]
+    fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
+        F32x8(std::array::from_fn(|l| Real::if_greater(a.0[l], b.0[l], then.0[l], otherwise.0[l])))
+    }
+}
+
+impl F32x8 {
+    /// Lane l takes lane l + 1 (lane 7 takes lane 0).
+    #[inline(always)]
+    pub(crate) fn rotate_down(self) -> Self {
+        F32x8(std::array::from_fn(|l| self.0[(l + 1) % LANES]))
+    }
+    /// Lane l takes lane l − 1 (lane 0 takes lane 7): undoes `rotate_down`.
+    #[inline(always)]
+    pub(crate) fn rotate_up(self) -> Self {
+        F32x8(std::array::from_fn(|l| self.0[(l + LANES - 1) % LANES]))
+    }
+    /// The largest lane.
+    #[inline(always)]
+    pub(crate) fn max_lane(self) -> f32 {
+        self.0.into_iter().fold(f32::NEG_INFINITY, Real::max)
+    }
+}
+
+/// A point: x, y, z.
+pub(crate) type Point<T> = [T; 3];
+
+/// The constants of `G(u)` above.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Shares {
+    a: f32,
+    b: f32,
+}
+
+impl Shares {
+    /// Hard bars of equal masses: c₁ = 1, c₂ = ½.
+    pub(crate) const RIGID: Shares = Shares::new(1.0, 0.5);
+
+    /// `G` through (1, c₁) and (2, c₂).
+    pub(crate) const fn new(c1: f32, c2: f32) -> Self {
+        let b = (c2 - 2.0 * c1) / 2.0;
+        Shares { a: c1 - b, b }
+    }
+
+    /// The shares of a bar with compliance β (α m/h²) and over-relaxation ω:
+    /// c_k = ω / (k + β) for k free ends.
+    pub(crate) fn compliant(beta: f32, omega: f32) -> Self {
+        Shares::new(omega / (1.0 + beta), omega / (2.0 + beta))
+    }
+
+    /// The weights of a particle with state code `u`.
+    #[inline(always)]
+    pub(crate) fn weights<T: Real>(self, u: T) -> Weights<T> {
+        Weights { own: (u - T::splat(1.0)).max(T::splat(0.0)), partner: u * (T::splat(self.a) + T::splat(self.b) * u) }
+    }
+}
+
+/// A particle's part in a projection: `own` = [u = 2] (does it move) and
+/// `partner` = G(u) (how much its partner moves), so that `s_a = own_a ·
+/// partner_b`. Stored per particle by the lane layout, computed on the fly
+/// elsewhere.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Weights<T> {
+    pub(crate) own: T,
+    pub(crate) partner: T,
+}
+
+/// Projects one bar (the seed's Figure 3): moves `a` and `b` along the bar so
+/// their distance returns towards `rest`, each by its share. Returns
+/// `|len − rest|`, the violation before the projection.
+///
+/// With `XPBD`, the bar is compliant: `mu` (β·λ of [`crate::sim::relax`], in
+/// metres) accumulates over the passes of a substep and the correction aims
+/// at `C + mu` instead of C, so the bar settles at C = −mu where its spring
+/// holds the load; the shares then already carry the 1/(k + β) of XPBD.
+#[inline(always)]
+pub(crate) fn relax_pair<T: Real, const XPBD: bool>(
+    a: &mut Point<T>,
+    wa: Weights<T>,
+    b: &mut Point<T>,
+    wb: Weights<T>,
+    rest: T,
+    mu: &mut T,
+    beta: T,
+) -> T {
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let violation = len - rest;
+    let target = if XPBD { violation + *mu } else { violation };
+    let c = target / len.max(T::splat(TINY_LENGTH));
+    let sa = wa.own * wb.partner;
+    let sb = wb.own * wa.partner;
+    let (ca, cb) = (sa * c, sb * c);
+    for k in 0..3 {
+        a[k] = a[k] + ca * d[k];
+        b[k] = b[k] - cb * d[k];
+    }
+    if XPBD {
+        // β Δλ = −β (C + βλ) / (k + β), and the larger share is ω/(k + β).
+        *mu = *mu - beta * target * sa.max(sb);
+    }
+    violation.abs()
+}
+
+/// Pulls a particle back onto the sphere of radius `reach` around `anchor`
+/// if it is outside (a tether; `reach` is +∞ for particles without one).
+#[inline(always)]
+pub(crate) fn tether<T: Real>(x: &mut Point<T>, anchor: Point<T>, reach: T, u: T) {
+    let d = [x[0] - anchor[0], x[1] - anchor[1], x[2] - anchor[2]];
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let scale = reach / len.max(T::splat(TINY_LENGTH));
+    for k in 0..3 {
+        let pulled = anchor[k] + d[k] * scale;
+        x[k] = T::if_greater(len, reach, T::if_free(u, pulled, x[k]), x[k]);
+    }
+}
+
+/// How far a bar is beyond tolerance: `violation − slack` (slack =
+/// tolerance · rest) if the bar can move (one end free, both present), −∞
+/// otherwise, so that a maximum over bars ignores bars that cannot move.
+#[inline(always)]
+pub(crate) fn excess<T: Real>(violation: T, wa: Weights<T>, wb: Weights<T>, slack: T) -> T {
+    let moves = wa.own * wb.partner + wb.own * wa.partner;
+    T::if_greater(moves, T::splat(0.0), violation - slack, T::splat(f32::NEG_INFINITY))
+}
+
+/// Equation 1 in displacement form for a free particle: `d ← keep·d + accel`,
+/// `x ← x + d` (keep = 1 − δ, accel = h²f/m). Fixed and absent particles keep
+/// their bits. Returns the new x, the prediction relaxation starts from.
+#[inline(always)]
+pub(crate) fn integrate<T: Real>(x: &mut Point<T>, d: &mut Point<T>, u: T, keep: T, accel: Point<T>) -> Point<T> {
+    for k in 0..3 {
+        let nd = keep * d[k] + accel[k];
+        let nx = x[k] + nd;
+        d[k] = T::if_free(u, nd, d[k]);
+        x[k] = T::if_free(u, nx, x[k]);
+    }
+    *x
+}
+
+/// After relaxation: the step's displacement is the predicted one plus what
+/// relaxation added, `d ← d + (x − x_pred)`. Computed this way d never picks
+/// up the rounding of x, so a damped particle comes to rest instead of
+/// creeping by an ulp every step.
+#[inline(always)]
+pub(crate) fn settle<T: Real>(d: &mut Point<T>, x: Point<T>, predicted: Point<T>, u: T) {
+    for k in 0..3 {
+        d[k] = T::if_free(u, d[k] + (x[k] - predicted[k]), d[k]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A rigid projection: [`relax_pair`] without compliance.
+    fn relax_rigid<T: Real>(a: &mut Point<T>, wa: Weights<T>, b: &mut Point<T>, wb: Weights<T>, rest: T) -> T {
+        relax_pair::<T, false>(a, wa, b, wb, rest, &mut T::splat(0.0), T::splat(0.0))
+    }
+
+    fn relax(a: [f32; 3], ua: f32, b: [f32; 3], ub: f32, rest: f32) -> ([f32; 3], [f32; 3]) {
+        let (mut a, mut b) = (a, b);
+        relax_rigid(&mut a, Shares::RIGID.weights(ua), &mut b, Shares::RIGID.weights(ub), rest);
+        (a, b)
+    }
+
+    #[test]
+    fn shares_follow_figure_3() {
+        // Free–free: half each. Rest 1, length 2 along x.
+        assert_eq!(relax([0.0; 3], FREE, [2.0, 0.0, 0.0], FREE, 1.0), ([0.5, 0.0, 0.0], [1.5, 0.0, 0.0]));
+        // Free–fixed: the free end takes it all.
+        assert_eq!(relax([0.0; 3], FIXED, [2.0, 0.0, 0.0], FREE, 1.0), ([0.0; 3], [1.0, 0.0, 0.0]));
+        assert_eq!(relax([0.0; 3], FREE, [2.0, 0.0, 0.0], FIXED, 1.0), ([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]));
+        // Fixed–fixed, and anything with an absent end: nothing moves.
+        assert_eq!(relax([0.0; 3], FIXED, [2.0, 0.0, 0.0], FIXED, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
+        assert_eq!(relax([0.0; 3], FREE, [2.0, 0.0, 0.0], ABSENT, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
+        assert_eq!(relax([0.0; 3], ABSENT, [2.0, 0.0, 0.0], FREE, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn lanes_compute_what_the_scalar_computes() {
+        let mut a = [F32x8(std::array::from_fn(|l| l as f32 * 0.3)), F32x8::splat(0.5), F32x8::splat(-1.0)];
+        let mut b = [F32x8(std::array::from_fn(|l| 1.0 + l as f32 * 0.7)), F32x8::splat(0.1), F32x8::splat(2.0)];
+        let ua = F32x8([FREE, FREE, FIXED, FREE, ABSENT, FREE, FIXED, FREE]);
+        let ub = F32x8([FREE, FIXED, FREE, ABSENT, FREE, FREE, FIXED, FREE]);
+        let (a0, b0) = (a, b);
+        let w = |u| Shares::RIGID.weights(u);
+        relax_rigid(&mut a, w(ua), &mut b, w(ub), F32x8::splat(0.8));
+        for l in 0..LANES {
+            let (sa, sb) = relax(
+                [a0[0].0[l], a0[1].0[l], a0[2].0[l]],
+                ua.0[l],
+                [b0[0].0[l], b0[1].0[l], b0[2].0[l]],
+                ub.0[l],
+                0.8,
+            );
+            assert_eq!(sa, [a[0].0[l], a[1].0[l], a[2].0[l]], "lane {l}");
+            assert_eq!(sb, [b[0].0[l], b[1].0[l], b[2].0[l]], "lane {l}");
+        }
+    }
+
+    #[test]
+    fn compliant_projection_matches_the_reference_formula() {
+        // The shares-and-μ form against crate::sim::relax's λ form, over a
+        // few passes with β = 0.7, ω = 1.3, free–free and free–fixed.
+        for (ua, wa) in [(FREE, 1.0f32), (FIXED, 0.0)] {
+            let (beta, omega, rest) = (0.7f32, 1.3f32, 1.0f32);
+            let shares = Shares::compliant(beta, omega);
+            let (mut a, mut b, mut mu) = ([0.0f32, 0.0, 0.0], [1.8f32, 0.3, -0.2], 0.0f32);
+            let (mut ra, mut rb, mut lambda) = (glam::Vec3::from(a), glam::Vec3::from(b), 0.0f32);
+            for _ in 0..5 {
+                relax_pair::<f32, true>(&mut a, shares.weights(ua), &mut b, shares.weights(FREE), rest, &mut mu, beta);
+                let (da, db) =
+                    crate::sim::relax::project_bar_compliant(ra, rb, rest, wa, 1.0, beta, &mut lambda, omega);
+                (ra, rb) = (ra + da, rb + db);
+            }
+            assert!((glam::Vec3::from(a) - ra).length() < 1e-6 && (glam::Vec3::from(b) - rb).length() < 1e-6);
+            assert!((mu - beta * lambda).abs() < 1e-6, "μ {mu} vs βλ {}", beta * lambda);
+        }
+    }
+
+    #[test]
+    fn tether_pulls_back_only_free_particles_that_are_too_far() {
+        let anchor = [0.0f32; 3];
+        let mut far = [3.0f32, 4.0, 0.0];
+        tether(&mut far, anchor, 2.5, FREE);
+        assert!((far[0] - 1.5).abs() < 1e-6 && (far[1] - 2.0).abs() < 1e-6, "{far:?}");
+        let mut near = [1.0f32, 1.0, 0.0];
+        tether(&mut near, anchor, 2.5, FREE);
+        assert_eq!(near, [1.0, 1.0, 0.0]);
+        let mut fixed = [3.0f32, 4.0, 0.0];
+        tether(&mut fixed, anchor, 2.5, FIXED);
+        assert_eq!(fixed, [3.0, 4.0, 0.0]);
+        let mut untied = [3.0f32, 4.0, 0.0];
+        tether(&mut untied, anchor, f32::INFINITY, FREE);
+        assert_eq!(untied, [3.0, 4.0, 0.0]);
+    }
+
+    #[test]
+    fn zero_length_bar_stays_finite() {
+        assert_eq!(relax([1.0; 3], FREE, [1.0; 3], FREE, 0.5), ([1.0; 3], [1.0; 3]));
+    }
+
+    #[test]
+    fn integration_leaves_fixed_particles_alone() {
+        let (mut x, mut d) = ([-0.0f32, 1.0, 2.0], [0.0f32; 3]);
+        integrate(&mut x, &mut d, FIXED, 0.98, [1.0; 3]);
+        assert_eq!(((-0.0f32).to_bits(), [1.0, 2.0], [0.0; 3]), (x[0].to_bits(), [x[1], x[2]], d));
+        integrate(&mut x, &mut d, FREE, 0.98, [1.0; 3]);
+        assert_eq!((x, d), ([1.0, 2.0, 3.0], [1.0; 3]));
+    }
+
+    #[test]
+    fn rotations_are_inverse() {
+        let v = F32x8(std::array::from_fn(|l| l as f32));
+        assert_eq!(v.rotate_down().0, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 0.0]);
+        assert_eq!(v.rotate_down().rotate_up(), v);
+    }
+}
