@@ -37,12 +37,12 @@ fn seed_bars() {
 
 #[test]
 fn flag() {
-    common::assert_golden("flag", &render_scene("flag", 60, false));
+    common::assert_golden("flag", &render_scene("flag", 150, false));
 }
 
 #[test]
 fn hammock() {
-    common::assert_golden("hammock", &render_scene("hammock", 60, false));
+    common::assert_golden("hammock", &render_scene("hammock", 120, false));
 }
 
 #[test]
@@ -53,7 +53,7 @@ fn chain() {
 
 #[test]
 fn tablecloth() {
-    common::assert_golden("tablecloth", &render_scene("tablecloth", 60, false));
+    common::assert_golden("tablecloth", &render_scene("tablecloth", 150, false));
 }
 
 #[test]

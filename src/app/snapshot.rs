@@ -28,8 +28,12 @@ pub fn snapshot(
 ) -> Result<image::RgbaImage, ReadbackError> {
     let target = OffscreenTarget::new(&gpu.device, width, height);
     renderer.update(sim);
-    let frame =
-        FrameSpec { camera: *camera, viewport: Viewport::full(width, height), options: *options, pixels_per_point: 1.0 };
+    let frame = FrameSpec {
+        camera: *camera,
+        viewport: Viewport::full(width, height),
+        options: *options,
+        pixels_per_point: 1.0,
+    };
     let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("snapshot") });
     renderer.render(&mut encoder, &target.view, (width, height), &frame);
     let mut extra = Vec::new();

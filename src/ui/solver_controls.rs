@@ -5,7 +5,7 @@ use egui::{DragValue, Slider, Ui};
 use glam::Vec3;
 
 use super::command::UiCommand;
-use crate::sim::{SolverKind, SolverParams, Wind};
+use crate::sim::{SolverKind, SolverParams, Start, Wind};
 
 /// The solver's own values, for the "scene values" button.
 #[derive(Clone, Copy, Debug)]
@@ -45,10 +45,15 @@ pub fn solver_controls(
         .on_hover_text("Share of last step's motion removed each step (equation 1).");
     ui.add(Slider::new(&mut edited.dt, 0.001..=0.1).logarithmic(true).suffix(" s").text("time step h"))
         .on_hover_text("Simulated seconds per step.");
-    ui.add(Slider::new(&mut edited.mass, 0.001..=10.0).logarithmic(true).suffix(" kg").text("mass m"))
+    ui.add(Slider::new(&mut edited.mass, 1e-4..=10.0).logarithmic(true).suffix(" kg").text("mass m"))
         .on_hover_text("Mass of every particle: forces are divided by it.");
-    vector_row(ui, "gravity (N)", &mut edited.gravity, 0.1);
-    wind_controls(ui, &mut edited.wind);
+    vector_row(ui, "gravity (N)", &mut edited.gravity).on_hover_text(format!(
+        "A force on every particle (the seed's equation 3): {:.2} m/s² at this mass.",
+        edited.gravity.length() / edited.mass
+    ));
+    let weight = edited.gravity.length();
+    wind_controls(ui, &mut edited.wind, weight);
+    egui::CollapsingHeader::new("accuracy").default_open(false).show(ui, |ui| accuracy_controls(ui, &mut edited));
     if edited != *params {
         commands.push(UiCommand::SetParams(edited));
     }
@@ -63,16 +68,61 @@ pub fn solver_controls(
     commands
 }
 
-fn vector_row(ui: &mut Ui, label: &str, v: &mut Vec3, speed: f64) {
+/// The solver's accuracy options beyond the seed's (substeps, XPBD
+/// compliance, over-relaxation, early stop, tethers, the first step).
+fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
+    ui.add(Slider::new(&mut p.substeps, 1..=100).logarithmic(true).text("substeps"))
+        .on_hover_text("Each step of h split in n: stretch falls as 1/n² (Small Steps), cost grows as n.");
+    ui.add(Slider::new(&mut p.over_relaxation, 1.0..=1.9).text("over-relaxation ω"))
+        .on_hover_text("Each projection moves ω of the way: 1.2–1.5 converges in fewer passes.");
+    ui.add(
+        Slider::new(&mut p.stretch_compliance, 0.0..=1e-2)
+            .logarithmic(true)
+            .smallest_positive(1e-9)
+            .suffix(" m/N")
+            .text("stretch compliance"),
+    )
+    .on_hover_text("XPBD: 0 is rigid; larger is softer, whatever the passes.");
+    ui.add(
+        Slider::new(&mut p.bend_compliance, 0.0..=1e-2)
+            .logarithmic(true)
+            .smallest_positive(1e-9)
+            .suffix(" m/N")
+            .text("bend compliance"),
+    )
+    .on_hover_text("XPBD for bend bars: soft values let the cloth fold without stretching.");
+    ui.add(Slider::new(&mut p.tolerance, 0.0..=0.1).logarithmic(true).smallest_positive(1e-6).text("early stop"))
+        .on_hover_text("Stop relaxing once every bar is within this strain (0: always all passes).");
     ui.horizontal(|ui| {
-        ui.add(DragValue::new(&mut v.x).speed(speed).prefix("x ").range(-1e3..=1e3));
-        ui.add(DragValue::new(&mut v.y).speed(speed).prefix("y ").range(-1e3..=1e3));
-        ui.add(DragValue::new(&mut v.z).speed(speed).prefix("z ").range(-1e3..=1e3));
-        ui.label(label);
+        let mut on = p.tether_slack.is_some();
+        ui.checkbox(&mut on, "tethers").on_hover_text("Keep every particle within its rest path length of a pin.");
+        let mut slack = p.tether_slack.unwrap_or(0.05);
+        ui.add_enabled(on, Slider::new(&mut slack, 0.0..=0.5).text("slack"));
+        p.tether_slack = on.then_some(slack);
+    });
+    ui.horizontal(|ui| {
+        ui.label("first step");
+        ui.radio_value(&mut p.start, Start::Euler, "Euler (seed)");
+        ui.radio_value(&mut p.start, Start::SecondOrder, "second order");
     });
 }
 
-fn wind_controls(ui: &mut Ui, wind: &mut Wind) {
+/// Three numbers in a row; the drag speed follows the vector's size so
+/// that both 9.8 N and 0.0098 N can be adjusted.
+fn vector_row(ui: &mut Ui, label: &str, v: &mut Vec3) -> egui::Response {
+    let speed = f64::from(v.abs().max_element()).max(1e-3) * 0.01;
+    ui.horizontal(|ui| {
+        for (value, axis) in [(&mut v.x, "x "), (&mut v.y, "y "), (&mut v.z, "z ")] {
+            ui.add(DragValue::new(value).speed(speed).prefix(axis).range(-1e3..=1e3).max_decimals(5));
+        }
+        ui.label(label)
+    })
+    .inner
+}
+
+/// The wind model and its numbers. A model switched on starts at about the
+/// particles' `weight` (newtons), which suits any scene's scale of mass.
+fn wind_controls(ui: &mut Ui, wind: &mut Wind, weight: f32) {
     let name = |w: &Wind| match w {
         Wind::None => "none",
         Wind::Seed { .. } => "seed's gusts",
@@ -80,13 +130,14 @@ fn wind_controls(ui: &mut Ui, wind: &mut Wind) {
     };
     let mut model = *wind;
     egui::ComboBox::from_label("wind").selected_text(name(wind)).show_ui(ui, |ui| {
+        // The seed's gusts average about 9 N at scale 1.
         let keep_scale = match *wind {
             Wind::Seed { scale } => scale,
-            _ => 1.0,
+            _ => (weight / 9.0).clamp(1e-4, 5.0),
         };
         let keep_force = match *wind {
             Wind::Constant { force } => force,
-            _ => Vec3::new(5.0, 0.0, 0.0),
+            _ => Vec3::new(0.5 * weight, 0.0, 0.0),
         };
         for option in [Wind::None, Wind::Seed { scale: keep_scale }, Wind::Constant { force: keep_force }] {
             let label = name(&option);
@@ -97,8 +148,11 @@ fn wind_controls(ui: &mut Ui, wind: &mut Wind) {
     match wind {
         Wind::None => {}
         Wind::Seed { scale } => {
-            ui.add(Slider::new(scale, 0.0..=5.0).text("wind scale")).on_hover_text("Multiplies the seed's equation 4.");
+            ui.add(Slider::new(scale, 0.0..=5.0).logarithmic(true).smallest_positive(1e-4).text("wind scale"))
+                .on_hover_text("Multiplies the seed's equation 4.");
         }
-        Wind::Constant { force } => vector_row(ui, "wind (N)", force, 0.05),
+        Wind::Constant { force } => {
+            vector_row(ui, "wind (N)", force);
+        }
     }
 }
