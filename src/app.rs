@@ -4,7 +4,7 @@
 //! - [`grab`]: picking and dragging particles.
 //! - [`stepper`]: steps per frame, and the real-time accumulator.
 //! - [`clock`]: where time comes from.
-//! - [`snapshot`]: one frame as an image, legend included (`drape render`).
+//! - [`mod@snapshot`]: one frame as an image, legend included (`drape render`).
 //! - [`window`]: the winit application, the surface and its failure modes.
 
 pub mod clock;

@@ -2,6 +2,12 @@
 //! number of steps, at a fixed size, from the scene's own camera, through
 //! the same code as `drape render`; and the whole viewer window, panel
 //! included, drawn offscreen. The tolerance is documented in `common`.
+//!
+//! The images depend on the solver's numbers as well as on the renderer
+//! (the fast solver gives the same bits on any thread count, so they are
+//! reproducible): after a deliberate change to a scene, the solver or the
+//! renderer, look at the `.actual.png` images and run
+//! `UPDATE_GOLDEN=1 cargo test`.
 #![cfg(feature = "viewer")]
 
 mod common;

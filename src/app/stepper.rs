@@ -14,7 +14,7 @@ const MAX_STEPS_PER_FRAME: u64 = 64;
 ///
 /// In [`TimeMode::RealTime`] it is a fixed-step accumulator: elapsed wall
 /// time is banked and spent in whole steps of h. The steps one frame may take
-/// are capped by a solver-time budget (and by [`MAX_STEPS_PER_FRAME`]); time
+/// are capped by a solver-time budget (and at 64); time
 /// the cap leaves unspent is dropped rather than carried over, so a solver
 /// slower than real time runs slow instead of spiralling into ever longer
 /// frames.

@@ -61,9 +61,23 @@ pub const KEY_BINDINGS: &[(&str, &str)] = &[
 
 /// What the mouse does in the 3-D view, as shown in the panel and the README.
 pub const MOUSE_BINDINGS: &[(&str, &str)] = &[
-    ("left-drag on cloth", "grab a particle and pull it"),
+    ("left-drag on the cloth", "grab a particle and pull it"),
     ("left-drag elsewhere", "orbit"),
     ("right- or middle-drag", "pan"),
     ("wheel", "zoom"),
     ("Ctrl + click", "pin / unpin a particle"),
+    ("drop a scene file", "open it"),
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_readme_lists_every_binding() {
+        let readme = include_str!("../../README.md");
+        for (binding, _) in KEY_BINDINGS.iter().chain(MOUSE_BINDINGS) {
+            assert!(readme.contains(&format!("| {binding} |")), "README.md's viewer tables lack `{binding}`");
+        }
+    }
+}

@@ -3,7 +3,7 @@
 //! [`UiCommand`]s, which [`crate::app`] applies.
 //!
 //! - [`command`]: [`UiCommand`], [`TimeMode`] and the key bindings.
-//! - [`panel`]: the side panel.
+//! - [`mod@panel`]: the side panel.
 //! - [`solver_controls`]: the solver part of it.
 //! - [`stats`]: timings and strain over time.
 //! - [`overlay`]: strain legend, blow-up message, toasts.

@@ -71,28 +71,19 @@ pub fn solver_controls(
 /// The solver's accuracy options beyond the seed's (substeps, XPBD
 /// compliance, over-relaxation, early stop, tethers, the first step).
 fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
+    // Indented one level deeper than the other sliders: narrower ones keep
+    // the labels inside the panel.
+    ui.spacing_mut().slider_width = 72.0;
     ui.add(Slider::new(&mut p.substeps, 1..=100).logarithmic(true).text("substeps"))
         .on_hover_text("Each step of h split in n: stretch falls as 1/n² (Small Steps), cost grows as n.");
     ui.add(Slider::new(&mut p.over_relaxation, 1.0..=1.9).text("over-relaxation ω"))
         .on_hover_text("Each projection moves ω of the way: 1.2–1.5 converges in fewer passes.");
-    ui.add(
-        Slider::new(&mut p.stretch_compliance, 0.0..=1e-2)
-            .logarithmic(true)
-            .smallest_positive(1e-9)
-            .suffix(" m/N")
-            .text("stretch compliance"),
-    )
-    .on_hover_text("XPBD: 0 is rigid; larger is softer, whatever the passes.");
-    ui.add(
-        Slider::new(&mut p.bend_compliance, 0.0..=1e-2)
-            .logarithmic(true)
-            .smallest_positive(1e-9)
-            .suffix(" m/N")
-            .text("bend compliance"),
-    )
-    .on_hover_text("XPBD for bend bars: soft values let the cloth fold without stretching.");
-    ui.add(Slider::new(&mut p.tolerance, 0.0..=0.1).logarithmic(true).smallest_positive(1e-6).text("early stop"))
-        .on_hover_text("Stop relaxing once every bar is within this strain (0: always all passes).");
+    ui.add(small_values(&mut p.stretch_compliance, 1e-2, 1e-9, "rigid").text("stretch α (m/N)"))
+        .on_hover_text("XPBD compliance: 0 is rigid; larger is softer, whatever the passes.");
+    ui.add(small_values(&mut p.bend_compliance, 1e-2, 1e-9, "rigid").text("bend α (m/N)"))
+        .on_hover_text("XPBD compliance of bend bars: soft values let the cloth fold without stretching.");
+    ui.add(small_values(&mut p.tolerance, 0.1, 1e-6, "off").text("early stop"))
+        .on_hover_text("Stop relaxing once every bar is within this strain (off: always all passes).");
     ui.horizontal(|ui| {
         let mut on = p.tether_slack.is_some();
         ui.checkbox(&mut on, "tethers").on_hover_text("Keep every particle within its rest path length of a pin.");
@@ -105,6 +96,19 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
         ui.radio_value(&mut p.start, Start::Euler, "Euler (seed)");
         ui.radio_value(&mut p.start, Start::SecondOrder, "second order");
     });
+}
+
+/// A logarithmic slider from 0 to `max` for values that span decades,
+/// shown as `1.0e-5` (and `zero` at 0) so the panel keeps its width.
+fn small_values<'a>(value: &'a mut f32, max: f32, smallest: f64, zero: &'static str) -> Slider<'a> {
+    Slider::new(value, 0.0..=max)
+        .logarithmic(true)
+        .smallest_positive(smallest)
+        .custom_formatter(move |v, _| if v == 0.0 { zero.to_string() } else { format!("{v:.1e}") })
+        .custom_parser(move |text| {
+            let text = text.trim();
+            if text == zero { Some(0.0) } else { text.parse::<f64>().ok() }
+        })
 }
 
 /// Three numbers in a row; the drag speed follows the vector's size so
