@@ -67,3 +67,35 @@ fn large() {
     // 65 536 particles: few steps keep the test quick.
     common::assert_golden("large", &render_scene("large", 3, false));
 }
+
+/// Rows of a texture copy start every 256 bytes; a width whose rows are not
+/// a multiple of that (37 × 4 = 148 bytes) must come back unpadded and intact.
+#[test]
+fn readback_strips_row_padding() {
+    let gpu = common::gpu();
+    let (w, h) = (37, 9);
+    let target = OffscreenTarget::new(&gpu.device, w, h);
+    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    {
+        let colour = wgpu::Color { r: 1.0, g: 0.5, b: 0.0, a: 1.0 };
+        let _pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: None,
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.view,
+                resolve_target: None,
+                depth_slice: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(colour), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+    }
+    gpu.queue.submit([encoder.finish()]);
+    let image = target.read(&gpu.device, &gpu.queue).unwrap();
+    assert_eq!(image.dimensions(), (w, h));
+    for p in image.pixels() {
+        assert!(p[0] == 255 && p[1].abs_diff(128) <= 1 && p[2] == 0 && p[3] == 255, "{p:?}");
+    }
+}

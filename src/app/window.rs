@@ -29,9 +29,9 @@ pub enum AppError {
     /// The window system refused the window.
     #[error("cannot create the window: {0}")]
     Window(String),
-    /// No graphics adapter or device.
-    #[error("{0}; `drape render` needs no window, but it needs an adapter too")]
-    Gpu(#[from] GpuError),
+    /// No graphics adapter, device or surface.
+    #[error("{0}")]
+    Gpu(GpuError),
     /// The scene could not be simulated.
     #[error(transparent)]
     Sim(#[from] SimError),
@@ -142,12 +142,12 @@ impl App {
         let descriptor =
             wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(event_loop.owned_display_handle()));
         let instance = wgpu::Instance::new(descriptor);
-        let surface = instance.create_surface(window.clone()).map_err(GpuError::from)?;
-        let gpu = Gpu::with_instance(instance, Some(&surface), AdapterPreference::Hardware)?;
+        let surface = instance.create_surface(window.clone()).map_err(|e| AppError::Gpu(GpuError::CreateSurface(e)))?;
+        let gpu = Gpu::with_instance(instance, Some(&surface), AdapterPreference::Hardware).map_err(AppError::Gpu)?;
         if gpu.is_software() {
             log::warn!("drawing with a software rasteriser ({}): expect a low frame rate", gpu.adapter_summary());
         }
-        let surface = WindowSurface::new(&gpu, surface, &window)?;
+        let surface = WindowSurface::new(&gpu, surface, &window).map_err(AppError::Gpu)?;
         let format = surface.config.format;
         let mut viewer = Viewer::new(gpu, scene, format, ViewerSettings::default())?;
         viewer.set_vsync(Some(surface.vsync()));

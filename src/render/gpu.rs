@@ -28,16 +28,17 @@ pub enum GpuError {
         found: String,
     },
     /// The adapter exists but would not open a device.
-    #[error("the adapter {adapter} would not create a device: {source}")]
+    #[error("the adapter {adapter} would not create a device: {reason}")]
     RequestDevice {
         /// Summary of the adapter.
         adapter: String,
         /// wgpu's reason.
-        source: wgpu::RequestDeviceError,
+        reason: wgpu::RequestDeviceError,
     },
-    /// The window system would not give wgpu a surface.
-    #[error("cannot create a drawing surface for the window: {0}")]
-    CreateSurface(#[from] wgpu::CreateSurfaceError),
+    /// The window system would not give wgpu a surface (for example: no
+    /// backend enabled by `WGPU_BACKEND` can draw to windows here).
+    #[error("cannot create a drawing surface for the window ({0}); {ADAPTER_HINT}")]
+    CreateSurface(wgpu::CreateSurfaceError),
     /// The surface offers no format the renderer can use.
     #[error("the window's surface offers no 8-bit RGBA or BGRA format (it offers {0})")]
     NoSurfaceFormat(String),
@@ -87,7 +88,7 @@ impl Gpu {
     ) -> Result<Self, GpuError> {
         let adapter = choose_adapter(&instance, surface, preference)?;
         let (device, queue) = pollster::block_on(adapter.request_device(&device_descriptor(&adapter)))
-            .map_err(|source| GpuError::RequestDevice { adapter: summary(&adapter.get_info()), source })?;
+            .map_err(|reason| GpuError::RequestDevice { adapter: summary(&adapter.get_info()), reason })?;
         Ok(Self { instance, adapter, device, queue })
     }
 

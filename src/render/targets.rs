@@ -58,7 +58,7 @@ impl FrameTargets {
 pub enum ReadbackError {
     /// Waiting for the GPU failed (device lost or timed out).
     #[error("waiting for the GPU failed: {0}")]
-    Poll(#[from] wgpu::PollError),
+    Poll(wgpu::PollError),
     /// Mapping the buffer failed.
     #[error("cannot map the readback buffer: {0}")]
     Map(String),
@@ -141,7 +141,7 @@ pub fn read_texture(
     buffer.slice(..).map_async(wgpu::MapMode::Read, move |result| {
         let _ = sender.send(result);
     });
-    device.poll(wgpu::PollType::wait_indefinitely())?;
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(ReadbackError::Poll)?;
     match receiver.recv() {
         Ok(Ok(())) => {}
         Ok(Err(e)) => return Err(ReadbackError::Map(e.to_string())),
