@@ -111,6 +111,9 @@ pub struct Viewer {
     drag: Drag,
     /// The simulation changed since the renderer last took its positions.
     sim_changed: bool,
+    /// The strain of the current state, once computed (O(bars): not redone
+    /// for frames in which nothing moved).
+    strain: Option<crate::sim::Strain>,
     clock: Box<dyn Clock>,
     last_frame: Option<Duration>,
     vsync: Option<bool>,
@@ -160,6 +163,7 @@ impl Viewer {
             toasts: Vec::new(),
             drag: Drag::None,
             sim_changed: false,
+            strain: None,
             clock: settings.clock,
             last_frame: None,
             vsync: None,
@@ -188,7 +192,7 @@ impl Viewer {
     /// The simulation, to change it from code (a script, a test). The
     /// change is drawn in the next frame.
     pub fn simulation_mut(&mut self) -> &mut Simulation {
-        self.sim_changed = true;
+        self.touched();
         &mut self.sim
     }
 
@@ -243,6 +247,13 @@ impl Viewer {
         let r = self.view_rect;
         let s = self.pixels_per_point;
         Viewport { x: r.left() * s, y: r.top() * s, width: r.width() * s, height: r.height() * s }
+    }
+
+    /// Notes that the simulation's state changed: the renderer must take
+    /// the new positions, the strain must be measured again.
+    fn touched(&mut self) {
+        self.sim_changed = true;
+        self.strain = None;
     }
 
     fn seconds(&mut self) -> f64 {
@@ -310,7 +321,7 @@ impl Viewer {
         egui::Panel::right("panel").resizable(true).default_size(PANEL_WIDTH).min_size(220.0).show(ui, |ui| {
             commands.extend(crate::ui::panel(ui, state, &model));
         });
-        egui::CentralPanel::no_frame().show(ui, |ui| commands.extend(self.view_area(ui)));
+        egui::CentralPanel::no_frame().show(ui, |ui| self.view_area(ui));
         let ctx = ui.ctx().clone();
         // A scene file dropped on the window opens.
         let dropped: Vec<String> =
@@ -358,7 +369,7 @@ impl Viewer {
     }
 
     /// The 3-D view: orbit, pan, zoom, grab and pin with the mouse.
-    fn view_area(&mut self, ui: &mut Ui) -> Vec<UiCommand> {
+    fn view_area(&mut self, ui: &mut Ui) {
         let rect = ui.max_rect();
         self.view_rect = rect;
         self.pixels_per_point = ui.ctx().pixels_per_point();
@@ -383,7 +394,7 @@ impl Viewer {
                     Ok(grab) => {
                         self.drag = Drag::Grab(grab);
                         self.renderer.set_highlight(Some(i));
-                        self.sim_changed = true;
+                        self.touched();
                     }
                     Err(e) => self.toast(e.to_string(), true),
                 },
@@ -398,16 +409,12 @@ impl Viewer {
             self.drag = Drag::Pan;
         }
         let delta = Vec2::new(pointer.delta().x, pointer.delta().y) * ppp;
+        let geometry = self.view_geometry();
         match &mut self.drag {
             Drag::Orbit => self.camera.orbit(delta),
-            Drag::Pan => self.camera.pan(delta, rect.height() * ppp),
+            Drag::Pan => self.camera.pan(delta, geometry.size.y),
             Drag::Grab(grab) => {
                 if let Some(cursor) = cursor {
-                    let geometry = ViewGeometry {
-                        camera: self.camera,
-                        size: Vec2::new(rect.width(), rect.height()) * ppp,
-                        world_radius: self.renderer.world_radius(),
-                    };
                     grab.drag_to(&geometry, cursor);
                 }
             }
@@ -424,7 +431,6 @@ impl Viewer {
         if let Drag::Grab(_) = self.drag {
             ui.ctx().set_cursor_icon(egui::CursorIcon::Grabbing);
         }
-        Vec::new()
     }
 
     fn end_drag(&mut self) {
@@ -436,7 +442,7 @@ impl Viewer {
                 self.toast(e.to_string(), true);
             }
             self.renderer.set_highlight(None);
-            self.sim_changed = true;
+            self.touched();
         }
     }
 
@@ -444,7 +450,7 @@ impl Viewer {
         let fixed = self.sim.fixed().get(particle).copied().unwrap_or(false);
         match self.sim.set_fixed(particle, !fixed) {
             Ok(()) => {
-                self.sim_changed = true;
+                self.touched();
                 let what = if fixed { "unpinned" } else { "pinned" };
                 self.toast(format!("particle {particle} {what}"), false);
             }
@@ -462,7 +468,7 @@ impl Viewer {
             if let Err(e) = grab.hold(&mut self.sim) {
                 self.toast(e.to_string(), true);
             }
-            self.sim_changed = true;
+            self.touched();
         }
         let mut steps = 0;
         let mut solver_seconds = 0.0;
@@ -476,14 +482,15 @@ impl Viewer {
             let start = self.clock.now();
             let result = self.sim.advance(steps);
             solver_seconds = self.clock.now().saturating_sub(start).as_secs_f64();
-            self.sim_changed = true;
+            self.touched();
             if result.is_err() {
                 self.end_drag();
             }
         }
         let simulated = self.sim.time() - time_before;
         let at = now.as_secs_f64();
-        self.stats.record_frame(at, frame_seconds, solver_seconds, steps, simulated, self.sim.strain());
+        let strain = *self.strain.get_or_insert_with(|| self.sim.strain());
+        self.stats.record_frame(at, frame_seconds, solver_seconds, steps, simulated, strain);
     }
 
     /// Applies one command; returns what the window must do, if anything.
@@ -499,14 +506,14 @@ impl Viewer {
                 self.paused = true;
                 if self.sim.diverged().is_none() {
                     let _ = self.sim.step();
-                    self.sim_changed = true;
+                    self.touched();
                 }
             }
             UiCommand::Reset => {
                 self.end_drag();
                 self.sim.reset();
                 self.stepper.reset();
-                self.sim_changed = true;
+                self.touched();
             }
             UiCommand::LoadScene(name) => self.load_scene(&name),
             UiCommand::SetParams(params) => {
@@ -558,6 +565,7 @@ impl Viewer {
                 self.stepper.reset();
                 self.reset_camera();
                 self.sim_changed = false;
+                self.strain = None;
                 let text = format!("loaded {}", self.scene.name);
                 self.toast(text, false);
             }

@@ -33,31 +33,6 @@ pub use view::ViewOptions;
 use crate::scene::CameraHint;
 use crate::sim::Simulation;
 
-/// Renders `sim` as it is now into a new `width × height` image, through
-/// the same [`Renderer`] as the window: what `drape render` writes and what
-/// the golden-image tests compare.
-pub fn render_image(
-    gpu: &Gpu,
-    renderer: &mut Renderer,
-    sim: &Simulation,
-    camera: &OrbitCamera,
-    options: &ViewOptions,
-    (width, height): (u32, u32),
-) -> Result<image::RgbaImage, ReadbackError> {
-    let target = OffscreenTarget::new(&gpu.device, width, height);
-    renderer.update(sim);
-    let frame = FrameSpec {
-        camera: *camera,
-        viewport: Viewport::full(width, height),
-        options: *options,
-        pixels_per_point: 1.0,
-    };
-    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render") });
-    renderer.render(&mut encoder, &target.view, (width, height), &frame);
-    gpu.queue.submit([encoder.finish()]);
-    target.read(&gpu.device, &gpu.queue)
-}
-
 /// The camera for a scene in a viewport of `aspect`: the hint's angles, and
 /// its distance and target or, where it leaves them out, a view that fits
 /// both where the cloth started and where it is now.
