@@ -142,18 +142,25 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         )),
         None => None,
     };
-    let bar = ProgressBar::new(args.steps);
-    if args.quiet || !std::io::stderr().is_terminal() {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    } else {
-        bar.set_style(ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} steps, eta {eta}",
-        )?);
-        // Short runs finish before a bar is worth drawing.
-        bar.enable_steady_tick(std::time::Duration::from_millis(200));
-    }
+    // The bar appears on a terminal once a run has taken a second; never
+    // when stderr is redirected or with --quiet.
+    let bar = ProgressBar::with_draw_target(Some(args.steps), ProgressDrawTarget::hidden());
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} steps, eta {eta}",
+    )?);
+    let show_bar = !args.quiet && std::io::stderr().is_terminal();
+    let started = std::time::Instant::now();
+    let mut shown = false;
+    let progress = |done| {
+        if show_bar && !shown && started.elapsed().as_secs_f64() > 1.0 {
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+            bar.enable_steady_tick(std::time::Duration::from_millis(200));
+            shown = true;
+        }
+        bar.set_position(done);
+    };
     let trace_arg = trace.as_mut().map(|w| (w as &mut dyn Write, args.every));
-    let summary = headless::run(&mut sim, args.steps, trace_arg, |done| bar.set_position(done))
+    let summary = headless::run(&mut sim, args.steps, trace_arg, progress)
         .with_context(|| format!("running {}", scene.source))?;
     bar.finish_and_clear();
     if let Some(mut w) = trace {
