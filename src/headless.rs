@@ -19,8 +19,10 @@ pub struct RunSummary {
     pub bars: usize,
     /// Steps taken by this run.
     pub steps: u64,
-    /// Relaxation passes per step.
+    /// Relaxation passes per substep.
     pub relaxations: u32,
+    /// Substeps per step.
+    pub substeps: u32,
     /// The solver used.
     pub solver: &'static str,
     /// Wall-clock seconds per step, stepping only (output excluded).
@@ -40,7 +42,15 @@ impl std::fmt::Display for RunSummary {
         writeln!(f, "particles            {}", self.particles)?;
         writeln!(f, "bars                 {}", self.bars)?;
         writeln!(f, "steps                {} ({:.3} s simulated)", self.steps, self.time)?;
-        writeln!(f, "relaxations          {} ({} solver)", self.relaxations, self.solver)?;
+        if self.substeps > 1 {
+            writeln!(
+                f,
+                "relaxations          {} per substep × {} substeps ({} solver)",
+                self.relaxations, self.substeps, self.solver
+            )?;
+        } else {
+            writeln!(f, "relaxations          {} ({} solver)", self.relaxations, self.solver)?;
+        }
         writeln!(f, "wall time per step   {}", format_duration(self.seconds_per_step))?;
         writeln!(f, "bar projections/s    {:.3e}", self.projections_per_second)?;
         writeln!(f, "max strain           {:.4e}", self.strain.max)?;
@@ -113,6 +123,7 @@ pub fn run(
         bars: sim.bars().len(),
         steps,
         relaxations: sim.params().relaxations,
+        substeps: sim.params().substeps,
         solver: sim.solver().name(),
         seconds_per_step: if steps > 0 { seconds / steps as f64 } else { 0.0 },
         projections_per_second: if seconds > 0.0 { projections / seconds } else { 0.0 },

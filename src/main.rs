@@ -58,6 +58,53 @@ struct SolverOverrides {
     /// Solver: fast or reference.
     #[arg(long, value_parser = parse_solver)]
     solver: Option<SolverKind>,
+    /// Substeps per step (1–1000); give each at least 2 relaxations.
+    #[arg(long)]
+    substeps: Option<u32>,
+    /// XPBD compliance of structural bars, m/N (0 = rigid).
+    #[arg(long)]
+    stretch_compliance: Option<f32>,
+    /// XPBD compliance of bend bars, m/N (0 = rigid).
+    #[arg(long)]
+    bend_compliance: Option<f32>,
+    /// Over-relaxation ω of each projection (1 ≤ ω < 2).
+    #[arg(long)]
+    over_relaxation: Option<f32>,
+    /// Turn tethers on with this slack (0–1).
+    #[arg(long)]
+    tether_slack: Option<f32>,
+    /// Stop relaxing once every bar is within this relative strain (0 = off).
+    #[arg(long)]
+    tolerance: Option<f32>,
+    /// First step: euler (the seed's equation 2) or second-order.
+    #[arg(long, value_parser = parse_start)]
+    start: Option<drape::sim::Start>,
+}
+
+impl SolverOverrides {
+    /// The scene's parameters with these overrides applied.
+    fn apply(&self, mut params: drape::sim::SolverParams) -> drape::sim::SolverParams {
+        params.relaxations = self.relaxations.unwrap_or(params.relaxations);
+        params.dt = self.dt.unwrap_or(params.dt);
+        params.damping = self.damping.unwrap_or(params.damping);
+        params.mass = self.mass.unwrap_or(params.mass);
+        params.substeps = self.substeps.unwrap_or(params.substeps);
+        params.stretch_compliance = self.stretch_compliance.unwrap_or(params.stretch_compliance);
+        params.bend_compliance = self.bend_compliance.unwrap_or(params.bend_compliance);
+        params.over_relaxation = self.over_relaxation.unwrap_or(params.over_relaxation);
+        params.tether_slack = self.tether_slack.or(params.tether_slack);
+        params.tolerance = self.tolerance.unwrap_or(params.tolerance);
+        params.start = self.start.unwrap_or(params.start);
+        params
+    }
+}
+
+fn parse_start(s: &str) -> Result<drape::sim::Start, String> {
+    match s {
+        "euler" => Ok(drape::sim::Start::Euler),
+        "second-order" => Ok(drape::sim::Start::SecondOrder),
+        _ => Err(format!("unknown start '{s}'; choose euler or second-order")),
+    }
 }
 
 #[derive(Args, Debug)]
@@ -191,19 +238,7 @@ fn list_scenes() {
 
 fn load_scene(name: &str, overrides: &SolverOverrides) -> anyhow::Result<(scene::Scene, drape::sim::Simulation)> {
     let scene = scene::load(name)?;
-    let mut params = scene.params.clone();
-    if let Some(k) = overrides.relaxations {
-        params.relaxations = k;
-    }
-    if let Some(h) = overrides.dt {
-        params.dt = h;
-    }
-    if let Some(d) = overrides.damping {
-        params.damping = d;
-    }
-    if let Some(m) = overrides.mass {
-        params.mass = m;
-    }
+    let params = overrides.apply(scene.params.clone());
     params.validate().context("invalid command-line override")?;
     let solver = overrides.solver.unwrap_or(scene.solver);
     let sim = drape::sim::Simulation::with_solver(scene.mesh.clone(), params, solver)?;
@@ -218,18 +253,25 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         )),
         None => None,
     };
-    let bar = ProgressBar::new(args.steps);
-    if args.quiet || !std::io::stderr().is_terminal() {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
-    } else {
-        bar.set_style(ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} steps, eta {eta}",
-        )?);
-        // Short runs finish before a bar is worth drawing.
-        bar.enable_steady_tick(std::time::Duration::from_millis(200));
-    }
+    // The bar appears on a terminal once a run has taken a second; never
+    // when stderr is redirected or with --quiet.
+    let bar = ProgressBar::with_draw_target(Some(args.steps), ProgressDrawTarget::hidden());
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} steps, eta {eta}",
+    )?);
+    let show_bar = !args.quiet && std::io::stderr().is_terminal();
+    let started = std::time::Instant::now();
+    let mut shown = false;
+    let progress = |done| {
+        if show_bar && !shown && started.elapsed().as_secs_f64() > 1.0 {
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+            bar.enable_steady_tick(std::time::Duration::from_millis(200));
+            shown = true;
+        }
+        bar.set_position(done);
+    };
     let trace_arg = trace.as_mut().map(|w| (w as &mut dyn Write, args.every));
-    let summary = headless::run(&mut sim, args.steps, trace_arg, |done| bar.set_position(done))
+    let summary = headless::run(&mut sim, args.steps, trace_arg, progress)
         .with_context(|| format!("running {}", scene.source))?;
     bar.finish_and_clear();
     if let Some(mut w) = trace {

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub use bundled::{BUNDLED, BundledScene};
-pub use file::SceneFile;
+pub use file::{SceneFile, parse_obj};
 
 use crate::sim::{ClothMesh, MeshError, SimError, Simulation, SolverKind, SolverParams};
 

@@ -10,6 +10,13 @@
 //! ```
 //!
 //! All are O(particles + bars) and cheap enough for every displayed frame.
+//!
+//! Errors against an exact or converged answer, for the accuracy benchmark:
+//!
+//! ```text
+//! static error     max_i |x_i − x*_i| / L       (x* the exact rest shape, L the chain's length)
+//! dynamic error    sqrt( Σ |x_i − x°_i|² / n ) / D   (x° a converged run, D the cloth's diagonal)
+//! ```
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -60,6 +67,59 @@ pub fn potential_energy(positions: &[Vec3], fixed: &[bool], force: Vec3) -> f64 
     positions.iter().zip(fixed).filter(|&(_, &f)| !f).map(|(&x, _)| -f64::from(force.dot(x))).sum()
 }
 
+/// Largest distance between matching points divided by `length`: the static
+/// error of a chain against its exact rest shape (points in the x–y plane).
+pub fn max_distance_error(positions: &[Vec3], exact: &[glam::DVec2], length: f64) -> f64 {
+    positions
+        .iter()
+        .zip(exact)
+        .map(|(p, e)| (glam::DVec2::new(f64::from(p.x), f64::from(p.y)) - *e).length())
+        .fold(0.0, f64::max)
+        / length
+}
+
+/// RMS distance between two states of the same cloth divided by `size`: the
+/// dynamic error of a run against a converged one.
+pub fn rms_distance_error(positions: &[Vec3], converged: &[Vec3], size: f64) -> f64 {
+    if positions.is_empty() {
+        return 0.0;
+    }
+    let sum: f64 = positions.iter().zip(converged).map(|(a, b)| f64::from(a.distance_squared(*b))).sum();
+    (sum / positions.len() as f64).sqrt() / size
+}
+
+/// Strain over a run: the worst step's max, and the means over the steps of
+/// each step's max and RMS.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StrainHistory {
+    /// Largest max strain of any recorded step.
+    pub worst_max: f32,
+    /// Sum of the recorded steps' max strain.
+    pub max_sum: f64,
+    /// Sum of the recorded steps' RMS strain.
+    pub rms_sum: f64,
+    /// Steps recorded.
+    pub steps: u64,
+}
+
+impl StrainHistory {
+    /// Adds one step's strain.
+    pub fn record(&mut self, s: Strain) {
+        self.worst_max = self.worst_max.max(s.max);
+        self.max_sum += f64::from(s.max);
+        self.rms_sum += f64::from(s.rms);
+        self.steps += 1;
+    }
+    /// Mean over the recorded steps of each step's max strain (0 before any).
+    pub fn mean_max(&self) -> f64 {
+        if self.steps == 0 { 0.0 } else { self.max_sum / self.steps as f64 }
+    }
+    /// Mean RMS strain over the recorded steps (0 before any).
+    pub fn mean_rms(&self) -> f64 {
+        if self.steps == 0 { 0.0 } else { self.rms_sum / self.steps as f64 }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -77,6 +137,24 @@ mod tests {
         // sqrt((0.1² + 0.2²)/2) = sqrt(0.025) = 0.158114
         assert!((s.rms - 0.158_114).abs() < 1e-5, "{s:?}");
         assert_eq!(strain(&positions, &[]), Strain::default());
+    }
+
+    #[test]
+    fn error_measures() {
+        let exact = [glam::DVec2::new(0.0, 0.0), glam::DVec2::new(1.0, 0.0)];
+        let positions = [Vec3::new(0.0, 0.3, 5.0), Vec3::new(1.0, -0.4, 0.0)];
+        // The larger of 0.3 and 0.4, over a length of 2; z is ignored.
+        assert!((max_distance_error(&positions, &exact, 2.0) - 0.2).abs() < 1e-7);
+        let moved = [Vec3::new(0.0, 0.3, 0.0), Vec3::new(1.0, 0.0, 0.4)];
+        // sqrt((0.09 + 0.16) / 2) / 1 = 0.353553
+        let e = rms_distance_error(&[Vec3::ZERO, Vec3::X], &moved, 1.0);
+        assert!((e - 0.353_553).abs() < 1e-6, "{e}");
+        let mut h = StrainHistory::default();
+        h.record(Strain { max: 0.1, rms: 0.02 });
+        h.record(Strain { max: 0.3, rms: 0.04 });
+        assert_eq!(h.worst_max, 0.3);
+        assert!((h.mean_max() - 0.2).abs() < 1e-7);
+        assert!((h.mean_rms() - 0.03).abs() < 1e-9);
     }
 
     #[test]

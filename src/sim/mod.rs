@@ -71,7 +71,7 @@ pub mod tether;
 pub mod wind;
 
 pub use mesh::{Bar, BarKind, ClothMesh, Grid, GridPlane, GridShape, MeshError, MeshParts, Pins};
-pub use metrics::Strain;
+pub use metrics::{Strain, StrainHistory};
 pub use params::{ParamError, SolverParams, Start};
 pub use simulation::{SimError, Simulation, SolverKind, Substep};
 pub use wind::Wind;

@@ -84,6 +84,13 @@ pub struct SolverParams {
     /// δ_n = 1 − (1 − δ)^(1/n) of the motion, so n substeps damp as one step.
     /// The wind is sampled once per step, at its start, for all its
     /// substeps. Range `1..=1000`, default 1 (the seed's way).
+    ///
+    /// Give each substep at least two passes on the seed's grid: with both
+    /// diagonals its cells are over-constrained, a single Gauss–Seidel pass
+    /// leaves a residual that changes from substep to substep, and its
+    /// velocity (residual / (h/n)) grows as substeps shrink — measured, the
+    /// hanging seed cloth never comes to rest at 20 × 1 and shivers
+    /// harder at 80 × 1, while 20 × 2 settles with 0.3 % strain.
     pub substeps: u32,
     /// α for structural bars: compliance, the inverse of stiffness, in m/N
     /// (XPBD, Macklin et al. 2016). A bar stretched by ε metres pulls with

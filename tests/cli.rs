@@ -1,0 +1,130 @@
+//! The `drape` binary as a user runs it: `drape run` output files, and every
+//! kind of bad input ending in one readable message and exit status 2, never
+//! a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn drape(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_drape")).args(args).output().expect("the drape binary runs")
+}
+
+/// A fresh directory under the target dir for one test's files.
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn run_writes_the_state_and_the_trace() {
+    let dir = scratch("run_outputs");
+    let (out, trace) = (dir.join("state.json"), dir.join("trace.csv"));
+    let o = drape(&[
+        "run",
+        "--scene",
+        "seed",
+        "--steps",
+        "10",
+        "--relaxations",
+        "5",
+        "--out",
+        path(&out),
+        "--trace",
+        path(&trace),
+        "--every",
+        "5",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let stdout = text(&o.stdout);
+    for line in [
+        "particles            600",
+        "steps                10",
+        "relaxations          5",
+        "max strain",
+        "bar projections/s",
+    ] {
+        assert!(stdout.contains(line), "missing {line:?} in\n{stdout}");
+    }
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(state["positions"].as_array().unwrap().len(), 600);
+    assert_eq!(state["positions"][0].as_array().unwrap().len(), 3);
+    // 10 steps of h = 0.05 s.
+    assert!((state["time"].as_f64().unwrap() - 0.5).abs() < 1e-6, "{}", state["time"]);
+    assert!(state["metrics"]["strain"]["max"].as_f64().unwrap() >= 0.0);
+    let csv = std::fs::read_to_string(&trace).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("step,time,particle,x,y,z"));
+    // The initial state and steps 5 and 10, 600 rows each.
+    assert_eq!(lines.count(), 3 * 600);
+    assert!(csv.contains("\n10,"), "no row for step 10");
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs `drape run` on scene text; returns stderr after checking the status.
+fn rejected(name: &str, scene: &str) -> String {
+    let dir = scratch(name);
+    let file = dir.join("scene.toml");
+    std::fs::write(&file, scene).unwrap();
+    let o = drape(&["run", "--scene", path(&file), "--steps", "3"]);
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{name}: expected exit status 2, got {:?}\n{stderr}", o.status);
+    assert!(!stderr.contains("panicked"), "{name} panicked:\n{stderr}");
+    assert!(stderr.starts_with("error: "), "{name}: {stderr}");
+    assert!(stderr.contains("scene.toml"), "{name}: the message should name the file: {stderr}");
+    stderr
+}
+
+#[test]
+fn bad_scenes_are_rejected_with_the_key_and_what_is_allowed() {
+    let grid = "[grid]\ncolumns = 4\nrows = 4\nspacing = 0.5\n";
+    let mesh = |body: &str| format!("[mesh]\n{body}\n");
+    let cases: Vec<(&str, String, &[&str])> = vec![
+        ("dt_zero", format!("[solver]\ndt = 0.0\n{grid}"), &["solver.dt", "0 < dt <= 1"]),
+        ("damping_one", format!("[solver]\ndamping = 1.0\n{grid}"), &["solver.damping", "0 <= damping < 1"]),
+        ("mass_negative", format!("[solver]\nmass = -1.0\n{grid}"), &["solver.mass"]),
+        ("nan", format!("[solver]\ndt = nan\n{grid}"), &["solver.dt"]),
+        ("typo", format!("[solver]\nrelaxation = 3\n{grid}"), &["unknown field", "line 2"]),
+        ("no_cloth", "[solver]\ndt = 0.1\n".to_string(), &["exactly one"]),
+        ("index", mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[7],[]]"), &["particle 7", "0 to 1"]),
+        ("self_bar", mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[0],[]]"), &["itself"]),
+        ("zero_length", mesh("positions = [[0.0,0.0,0.0],[0.0,0.0,0.0]]\nadjacency = [[1],[]]"), &["zero length"]),
+        ("duplicate", mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[1,1],[]]"), &["twice"]),
+        ("empty", mesh("positions = []\nadjacency = []"), &["no particles"]),
+        ("huge", "[grid]\ncolumns = 100000\nrows = 100000\nspacing = 1.0\n".to_string(), &["too many", "16777216"]),
+        ("obj_missing", "[obj]\npath = \"nowhere.obj\"\n".to_string(), &["[obj] path", "nowhere.obj"]),
+    ];
+    for (name, scene, needles) in cases {
+        let stderr = rejected(name, &scene);
+        for needle in needles {
+            assert!(stderr.contains(needle), "{name}: {needle:?} not in {stderr}");
+        }
+    }
+}
+
+#[test]
+fn bad_obj_and_bad_arguments_are_rejected() {
+    let dir = scratch("bad_obj");
+    std::fs::write(dir.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, "[obj]\npath = \"broken.obj\"\n").unwrap();
+    let o = drape(&["run", "--scene", path(&scene)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("[obj]"), "{}", text(&o.stderr));
+
+    let o = drape(&["run", "--scene", "no-such-scene"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("bundled scenes: seed"), "{}", text(&o.stderr));
+
+    let o = drape(&["run", "--dt=0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("dt = 0 is not allowed"), "{}", text(&o.stderr));
+}
