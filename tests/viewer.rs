@@ -22,13 +22,18 @@ const WINDOW: (u32, u32) = (800, 860);
 /// A viewer whose clock ticks 1 ms per reading, so its timings (and the
 /// stats the panel prints) are the same on every run.
 fn viewer(scene_name: &str, screenshots: &std::path::Path) -> Viewer {
+    viewer_for(scene_name, screenshots, OffscreenTarget::FORMAT)
+}
+
+/// A viewer drawing into targets of `format`, as a window's surface may be.
+fn viewer_for(scene_name: &str, screenshots: &std::path::Path, format: wgpu::TextureFormat) -> Viewer {
     let settings = ViewerSettings {
         predictable_ui: true,
         clock: Box::new(TickingClock { next: Duration::ZERO, tick: Duration::from_millis(1) }),
         screenshot_dir: screenshots.to_path_buf(),
         adapter_label: Some("test adapter".into()),
     };
-    Viewer::new(common::gpu().clone(), scene::load(scene_name).unwrap(), OffscreenTarget::FORMAT, settings).unwrap()
+    Viewer::new(common::gpu().clone(), scene::load(scene_name).unwrap(), format, settings).unwrap()
 }
 
 /// Feeds one frame of input events (at frame number `n`, 60 per second).
@@ -236,15 +241,21 @@ fn a_blow_up_stops_the_simulation_and_says_so() {
 #[test]
 fn f12_saves_a_screenshot_and_says_where() {
     let dir = temp_dir("f12");
-    let mut v = viewer("hammock", &dir);
+    // Windows on Linux usually get BGRA surfaces; the screenshot must be
+    // drawn in the same format the viewer's pipelines were made for.
+    let format = wgpu::TextureFormat::Bgra8Unorm;
+    let mut v = viewer_for("hammock", &dir, format);
     frame(&mut v, 0, vec![]);
     let f = frame(&mut v, 1, vec![key(Key::F12)]);
-    let target = OffscreenTarget::new(&common::gpu().device, WINDOW.0, WINDOW.1);
+    let target = OffscreenTarget::with_format(&common::gpu().device, WINDOW.0, WINDOW.1, format);
     v.draw(&target.view, WINDOW, &f.ui);
     let files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
     assert_eq!(files.len(), 1, "{files:?}");
-    let shot = image::open(&files[0]).unwrap();
-    assert_eq!((shot.width(), shot.height()), WINDOW);
+    let shot = image::open(&files[0]).unwrap().to_rgba8();
+    assert_eq!(shot.dimensions(), WINDOW);
+    // Red and blue in the right places: the sky (top-left) is bluish grey.
+    let sky = shot.get_pixel(10, 10);
+    assert!(sky[2] > sky[0], "BGRA read back as RGBA: {sky:?}");
     assert!(v.toasts().iter().any(|t| !t.error && t.text.contains("saved")));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -610,7 +610,8 @@ impl Viewer {
     /// F12 path, and the golden test of the whole window. Frees nothing:
     /// call [`Self::draw`] or [`Self::skip_draw`] for that.
     pub fn render_image(&mut self, size: (u32, u32), ui: &UiFrame) -> Result<image::RgbaImage, ReadbackError> {
-        let target = OffscreenTarget::new(&self.gpu.device, size.0, size.1);
+        // In the format the renderer and egui were made for (the window's).
+        let target = OffscreenTarget::with_format(&self.gpu.device, size.0, size.1, self.renderer.format());
         self.record_and_submit(&target.view, size, ui);
         target.read(&self.gpu.device, &self.gpu.queue)
     }

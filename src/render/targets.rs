@@ -83,13 +83,20 @@ impl OffscreenTarget {
 
     /// A `width × height` target in [`Self::FORMAT`].
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        Self::with_format(device, width, height, Self::FORMAT)
+    }
+
+    /// A `width × height` target in `format`, which must be 8-bit RGBA or
+    /// BGRA to be read back (a window's surface format, for screenshots
+    /// drawn by a renderer made for the window).
+    pub fn with_format(device: &wgpu::Device, width: u32, height: u32, format: wgpu::TextureFormat) -> Self {
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("offscreen"),
             size: wgpu::Extent3d { width: width.max(1), height: height.max(1), depth_or_array_layers: 1 },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: Self::FORMAT,
+            format,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
