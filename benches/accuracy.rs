@@ -291,7 +291,13 @@ fn main() {
         &[0.5, 0.3, 0.1, 0.03, 0.01],
     ));
     report.push_str(&cheapest_table(&rows, "seed", "mean RMS strain", |r| r.rms_strain, &[0.03, 0.01, 0.003, 0.001]));
-    report.push_str(&cheapest_table(&rows, "seed-calm", "typical max strain", |r| r.max_strain, &[0.1, 0.03, 0.01, 0.003]));
+    report.push_str(&cheapest_table(
+        &rows,
+        "seed-calm",
+        "typical max strain",
+        |r| r.max_strain,
+        &[0.1, 0.03, 0.01, 0.003],
+    ));
     report.push_str(&cheapest_table(
         &rows,
         "seed",

@@ -14,6 +14,9 @@ const ORBIT_PER_PIXEL: f32 = 0.008;
 const FIT_MARGIN: f32 = 1.1;
 /// Closest and furthest the camera may get, metres.
 const DISTANCE_RANGE: (f32, f32) = (1e-3, 1e6);
+/// The view shape a scene's `[camera] distance` is chosen for (16:10); a
+/// narrower view moves the camera back so the same width stays in view.
+const HINT_ASPECT: f32 = 1.6;
 
 /// A perspective camera looking at `target` from `distance` away, at an
 /// angle given by `yaw` and `pitch`.
@@ -105,7 +108,8 @@ impl OrbitCamera {
             camera.target = target;
         }
         if let Some(distance) = hint.distance {
-            camera.distance = distance.clamp(DISTANCE_RANGE.0, DISTANCE_RANGE.1);
+            let narrower = (HINT_ASPECT / aspect.max(1e-3)).max(1.0);
+            camera.distance = (distance * narrower).clamp(DISTANCE_RANGE.0, DISTANCE_RANGE.1);
         }
         camera
     }
@@ -204,6 +208,16 @@ mod tests {
 
     fn close(a: Vec3, b: Vec3) -> bool {
         (a - b).length() < 1e-4
+    }
+
+    #[test]
+    fn hinted_distance_is_for_a_16_to_10_view_and_backs_off_when_narrower() {
+        let hint = CameraHint { distance: Some(40.0), ..CameraHint::default() };
+        let bounds = (Vec3::ZERO, Vec3::ONE);
+        assert_eq!(OrbitCamera::from_hint(&hint, bounds, 1.6).distance, 40.0);
+        assert_eq!(OrbitCamera::from_hint(&hint, bounds, 2.4).distance, 40.0);
+        // Half as wide: twice as far, so the same width fits.
+        assert!((OrbitCamera::from_hint(&hint, bounds, 0.8).distance - 80.0).abs() < 1e-3);
     }
 
     #[test]

@@ -28,7 +28,8 @@ pub struct CameraHint {
     pub yaw_degrees: f32,
     /// Elevation, degrees; positive looks down on the cloth.
     pub pitch_degrees: f32,
-    /// Distance from the target in metres; `None` fits the cloth in view.
+    /// Distance from the target in metres, for a 16:10 view (narrower views
+    /// move back to keep the same width); `None` fits the cloth in view.
     pub distance: Option<f32>,
     /// The point looked at; `None` is the centre of the cloth's initial bounds.
     pub target: Option<glam::Vec3>,

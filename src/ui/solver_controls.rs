@@ -74,16 +74,18 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
     // Indented one level deeper than the other sliders: narrower ones keep
     // the labels inside the panel.
     ui.spacing_mut().slider_width = 72.0;
-    ui.add(Slider::new(&mut p.substeps, 1..=100).logarithmic(true).text("substeps"))
-        .on_hover_text("Each step of h split in n, each with all the passes: stretch falls as 1/n² (Small Steps), cost grows as n.");
+    ui.add(Slider::new(&mut p.substeps, 1..=100).logarithmic(true).text("substeps")).on_hover_text(
+        "Each step of h split in n, each with all the passes: stretch falls as 1/n² (Small Steps), cost grows as n.",
+    );
     if p.substeps > 1 && p.relaxations < 2 {
         ui.colored_label(
             egui::Color32::from_rgb(230, 160, 60),
             "One pass per substep makes a grid with both diagonals shiver, and can blow up: use 2 or more.",
         );
     }
-    ui.add(Slider::new(&mut p.over_relaxation, 1.0..=1.9).text("over-relaxation ω"))
-        .on_hover_text("Each projection moves ω of the way: helps chains, but on the seed's cloth ω > 1 left more strain (measured).");
+    ui.add(Slider::new(&mut p.over_relaxation, 1.0..=1.9).text("over-relaxation ω")).on_hover_text(
+        "Each projection moves ω of the way: helps chains, but on the seed's cloth ω > 1 left more strain (measured).",
+    );
     ui.add(small_values(&mut p.stretch_compliance, 1e-2, 1e-9, "rigid").text("stretch α (m/N)"))
         .on_hover_text("XPBD compliance: 0 is rigid; larger is softer, whatever the passes.");
     ui.add(small_values(&mut p.bend_compliance, 1e-2, 1e-9, "rigid").text("bend α (m/N)"))
