@@ -57,7 +57,8 @@ pub fn panel(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) -> Vec
         });
         egui::CollapsingHeader::new("Solver").default_open(true).show(ui, |ui| {
             let defaults = SceneDefaults { params: &model.scene.params, solver: model.scene.solver };
-            commands.extend(solver_controls(ui, model.sim.params(), model.sim.solver(), defaults));
+            let how = format!("{}; {} passes last substep", model.sim.solver_description(), model.sim.last_passes());
+            commands.extend(solver_controls(ui, model.sim.params(), model.sim.solver(), &how, defaults));
         });
         egui::CollapsingHeader::new("View").default_open(true).show(ui, |ui| {
             commands.extend(view_section(ui, model));

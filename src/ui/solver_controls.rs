@@ -16,13 +16,15 @@ pub struct SceneDefaults<'a> {
     pub solver: SolverKind,
 }
 
-/// Shows the solver chooser and one control per parameter. Every edit
-/// becomes a [`UiCommand::SetParams`] with the whole edited set, which the
-/// app applies to the running simulation at once.
+/// Shows the solver chooser, a line on how the solver in use works (`how`),
+/// and one control per parameter. Every edit becomes a
+/// [`UiCommand::SetParams`] with the whole edited set, which the app applies
+/// to the running simulation at once.
 pub fn solver_controls(
     ui: &mut Ui,
     params: &SolverParams,
     solver: SolverKind,
+    how: &str,
     scene: SceneDefaults<'_>,
 ) -> Vec<UiCommand> {
     let mut commands = Vec::new();
@@ -35,6 +37,9 @@ pub fn solver_controls(
     if chosen != solver {
         commands.push(UiCommand::SetSolver(chosen));
     }
+    ui.label(egui::RichText::new(how).small().weak()).on_hover_text(
+        "fast: the same equations ordered for SIMD lanes and threads; reference: the seed's loops as written.",
+    );
 
     // Widgets edit a copy; a changed copy is sent whole. New fields of
     // SolverParams ride along untouched.
