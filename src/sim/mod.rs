@@ -53,7 +53,7 @@
 //! - [`params`]: h, δ, m, relaxations, gravity and wind, with ranges.
 //! - [`mesh`]: particles, bars, triangles; grids, adjacency lists, triangle meshes.
 //! - [`simulation`]: [`Simulation`], the clock and the public state.
-//! - [`reference`]: the seed's loops written plainly, the yardstick.
+//! - [`reference`](mod@reference): the seed's loops written plainly, the yardstick.
 //! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
 //! - [`tether`]: long-range attachments that bound stretch.

@@ -8,20 +8,24 @@
 //!   each projection waits for the one before (about 15 ns each here). Bars
 //!   grouped so that no two in a group share a particle can be projected
 //!   back to back, overlapped by the CPU, or side by side in SIMD lanes.
-//! - **Lanes** (grids, [`grid`]): eight bands of the cloth sit in the eight
-//!   lanes of a vector, so one 8-wide instruction projects eight bars. The
-//!   kernels are plain loops over `[f32; 8]` compiled for AVX2 and selected at
-//!   run time (`multiversion`), with a baseline SSE2 fallback; no `unsafe`.
+//! - **Lanes** (grids, module `grid`): eight blocks of columns sit in the
+//!   eight lanes of a vector, so one 8-wide instruction projects eight bars,
+//!   and rows are swept away from the pins. The kernels are plain loops over
+//!   `[f32; 8]` compiled for AVX2 and selected at run time (`multiversion`),
+//!   with a baseline SSE2 fallback; no `unsafe`.
+//! - **Overlapped passes**: on a single tile up to four passes are in flight
+//!   three rows apart, which is exactly equivalent (such rows share no
+//!   particle) and gives the CPU independent work.
 //! - **Threads** (grids of at least 16 384 particles): the cloth is cut into
-//!   tiles of eight bands, swept in parallel with rayon; the few bars between
-//!   tiles are projected after a barrier. The tiling depends on the grid only,
-//!   so every thread count gives the same bits.
-//! - **Any mesh** ([`generic`]): bars are greedily coloured and relaxed colour
+//!   tiles of eight blocks of columns, swept in parallel with rayon, even
+//!   tiles then odd ones. The tiling depends on the grid only, so every
+//!   thread count gives the same bits.
+//! - **Any mesh** (module `generic`): bars are greedily coloured and relaxed colour
 //!   by colour, one thread.
 //!
-//! The order of projections within a pass differs from the reference (all
-//! bars of one kind and colour, then the next), so the two agree to the
-//! accuracy of the relaxation, not bit for bit; `tests/solvers.rs` measures it.
+//! The order of projections within a pass differs from the reference (row by
+//! row, and within a row class by class), so the two agree to the accuracy of
+//! the relaxation, not bit for bit; `tests/solvers.rs` measures it.
 //!
 //! **Integration in displacement form.** Equation 1 is evaluated as
 //!
