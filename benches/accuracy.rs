@@ -121,6 +121,28 @@ struct Row {
     error: Option<f64>,
 }
 
+impl Row {
+    fn new(
+        scene: &'static str,
+        method: Method,
+        budget: u32,
+        cost: f64,
+        strain: &StrainHistory,
+        error: Option<f64>,
+    ) -> Self {
+        Row {
+            scene,
+            method,
+            budget,
+            cost,
+            max_strain: strain.mean_max(),
+            worst_max_strain: f64::from(strain.worst_max),
+            rms_strain: strain.mean_rms(),
+            error,
+        }
+    }
+}
+
 fn simulation(mesh: &ClothMesh, params: SolverParams) -> drape::sim::Simulation {
     drape::sim::Simulation::with_solver(mesh.clone(), params, SolverKind::Fast).expect("valid benchmark parameters")
 }
@@ -192,16 +214,7 @@ fn main() {
             let params = method.params(&seed.params, budget);
             let (cost, strain) = strain_run(&seed.mesh, &params, seed_steps(2.0), seed_steps(10.0), repeats);
             let error = rms_distance_error(&positions_after(&seed.mesh, &params, horizon), &reference, size);
-            rows.push(Row {
-                scene: "seed",
-                method,
-                budget,
-                cost,
-                max_strain: strain.mean_max(),
-                worst_max_strain: f64::from(strain.worst_max),
-                rms_strain: strain.mean_rms(),
-                error: Some(error),
-            });
+            rows.push(Row::new("seed", method, budget, cost, &strain, Some(error)));
             eprintln!("seed  {:24} {budget:4}: {:.3e} s/s, max strain {:.3e}", method.name(), cost, strain.worst_max);
         }
     }
@@ -213,16 +226,7 @@ fn main() {
         for &budget in budgets {
             let params = method.params(&calm, budget);
             let (cost, strain) = strain_run(&seed.mesh, &params, seed_steps(2.0), seed_steps(10.0), repeats);
-            rows.push(Row {
-                scene: "seed-calm",
-                method,
-                budget,
-                cost,
-                max_strain: strain.mean_max(),
-                worst_max_strain: f64::from(strain.worst_max),
-                rms_strain: strain.mean_rms(),
-                error: None,
-            });
+            rows.push(Row::new("seed-calm", method, budget, cost, &strain, None));
         }
     }
 
@@ -246,16 +250,7 @@ fn main() {
             let (cost, strain) = strain_run(&chain.mesh, &params, chain_steps - 1, 1, repeats);
             let settled = positions_after(&chain.mesh, &params, chain_steps);
             let error = max_distance_error(&settled, &exact, links as f64 * link);
-            rows.push(Row {
-                scene: "chain",
-                method,
-                budget,
-                cost,
-                max_strain: strain.mean_max(),
-                worst_max_strain: f64::from(strain.worst_max),
-                rms_strain: strain.mean_rms(),
-                error: Some(error),
-            });
+            rows.push(Row::new("chain", method, budget, cost, &strain, Some(error)));
         }
     }
 
@@ -267,16 +262,7 @@ fn main() {
         for &budget in large_budgets {
             let params = method.params(&large.params, budget);
             let (cost, strain) = strain_run(&large.mesh, &params, large_steps(0.1), large_steps(0.3), 1);
-            rows.push(Row {
-                scene: "large",
-                method,
-                budget,
-                cost,
-                max_strain: strain.mean_max(),
-                worst_max_strain: f64::from(strain.worst_max),
-                rms_strain: strain.mean_rms(),
-                error: None,
-            });
+            rows.push(Row::new("large", method, budget, cost, &strain, None));
             eprintln!("large {:24} {budget:4}: {:.3e} s/s, max strain {:.3e}", method.name(), cost, strain.worst_max);
         }
     }
