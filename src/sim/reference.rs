@@ -81,13 +81,17 @@ impl ReferenceSolver {
         if compliant {
             self.lambda.fill(0.0);
         }
+        if !compliant && s.over_relaxation == 1.0 && s.tolerance <= 0.0 {
+            // The seed's own case: rigid bars, plain projections, every pass.
+            for _ in 0..s.relaxations {
+                self.relax_once();
+            }
+            return s.relaxations;
+        }
         let mut passes = 0;
         for _ in 0..s.relaxations {
             passes += 1;
-            let plain = !compliant && s.over_relaxation == 1.0 && s.tolerance <= 0.0;
-            if plain {
-                self.relax_once();
-            } else if self.relax_once_general(s) <= s.tolerance {
+            if self.relax_once_general(s) <= s.tolerance {
                 break;
             }
         }

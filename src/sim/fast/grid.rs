@@ -392,18 +392,30 @@ impl GridLayout {
         }
     }
 
-    /// Copies every tethered particle's anchor position (and rest path
-    /// length) into the lane arrays.
+    /// Sets up the lane arrays of tether anchor positions and rest path
+    /// lengths (+∞ for untethered particles).
     fn refresh_tethers(&mut self) {
-        let Some(tethers) = &self.tethers else {
+        if self.tethers.is_none() {
             return;
-        };
+        }
         for tile in &mut self.tiles {
             tile.tether_anchor = vec![[F32x8::default(); 3]; tile.position.len()];
             tile.tether_length = vec![F32x8::splat(f32::INFINITY); tile.position.len()];
         }
+        self.copy_anchor_positions(None);
+    }
+
+    /// Copies anchor positions into the lane arrays of the particles tied to
+    /// `only` (every tethered particle when `None`).
+    fn copy_anchor_positions(&mut self, only: Option<u32>) {
+        let Some(tethers) = &self.tethers else {
+            return;
+        };
         for (i, anchor) in tethers.anchor.iter().enumerate() {
             let Some(anchor) = *anchor else { continue };
+            if only.is_some_and(|o| o != anchor) {
+                continue;
+            }
             let (at, loc) = (self.locations[anchor as usize], self.locations[i]);
             let from = self.tiles[at.tile as usize].position[at.slot as usize].map(|c| c.0[at.lane as usize]);
             let tile = &mut self.tiles[loc.tile as usize];
@@ -436,8 +448,9 @@ impl GridLayout {
             d[k].0[l] = position[k] - previous[k];
         }
         if u.0[l] == FIXED {
-            // A moved fixed particle may be an anchor.
-            self.refresh_tethers();
+            // A moved fixed particle may be an anchor: its tethered particles
+            // follow it (no reallocation, so a drag costs one pass per frame).
+            self.copy_anchor_positions(Some(index as u32));
         }
     }
 
