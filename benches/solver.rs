@@ -71,5 +71,27 @@ fn scale(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, relaxations, scale);
+/// Criterion with its HTML charts. Criterion draws them with plotters, which
+/// in this workspace measures text with `ab_glyph` (the feature the accuracy
+/// chart needs) and so finds no system font: register egui's bundled one, as
+/// the accuracy benchmark does, or the first chart panics on a machine
+/// without fontconfig fonts.
+fn config() -> Criterion {
+    if plotters::style::register_font(
+        "sans-serif",
+        plotters::style::FontStyle::Normal,
+        epaint_default_fonts::UBUNTU_LIGHT,
+    )
+    .is_err()
+    {
+        eprintln!("the bundled chart font does not load; criterion's charts may fail");
+    }
+    Criterion::default()
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = relaxations, scale
+}
 criterion_main!(benches);
