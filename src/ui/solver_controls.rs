@@ -1,7 +1,7 @@
 //! The solver part of the panel, in one function so that new solver
 //! options need one new widget here and nothing else.
 
-use egui::{DragValue, Slider, Ui};
+use egui::{DragValue, Slider, SliderClamping, Ui};
 use glam::Vec3;
 
 use super::command::UiCommand;
@@ -42,15 +42,19 @@ pub fn solver_controls(
     );
 
     // Widgets edit a copy; a changed copy is sent whole. New fields of
-    // SolverParams ride along untouched.
+    // SolverParams ride along untouched. A slider's range is where its
+    // handle goes, not what is allowed: a scene's value outside it (200
+    // relaxations, h = 0.5 s) is shown and kept, typed values go through
+    // as typed, and `SolverParams::validate` in the app is the one judge of
+    // what is allowed (a rejected value becomes a message, not a clamp).
     let mut edited = params.clone();
-    ui.add(Slider::new(&mut edited.relaxations, 0..=100).text("relaxations"))
+    ui.add(slider(&mut edited.relaxations, 0..=100).text("relaxations"))
         .on_hover_text("Passes over every bar per step: more is stiffer and slower (the seed's Table 1).");
-    ui.add(Slider::new(&mut edited.damping, 0.0..=0.5).logarithmic(true).smallest_positive(1e-4).text("damping δ"))
+    ui.add(slider(&mut edited.damping, 0.0..=0.5).logarithmic(true).smallest_positive(1e-4).text("damping δ"))
         .on_hover_text("Share of last step's motion removed each step (equation 1).");
-    ui.add(Slider::new(&mut edited.dt, 0.001..=0.1).logarithmic(true).suffix(" s").text("time step h"))
+    ui.add(slider(&mut edited.dt, 0.001..=0.1).logarithmic(true).suffix(" s").text("time step h"))
         .on_hover_text("Simulated seconds per step.");
-    ui.add(Slider::new(&mut edited.mass, 1e-4..=10.0).logarithmic(true).suffix(" kg").text("mass m"))
+    ui.add(slider(&mut edited.mass, 1e-4..=10.0).logarithmic(true).suffix(" kg").text("mass m"))
         .on_hover_text("Mass of every particle: forces are divided by it.");
     vector_row(ui, "gravity (N)", &mut edited.gravity).on_hover_text(format!(
         "A force on every particle (the seed's equation 3): {:.2} m/s² at this mass.",
@@ -79,7 +83,7 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
     // Indented one level deeper than the other sliders: narrower ones keep
     // the labels inside the panel.
     ui.spacing_mut().slider_width = 72.0;
-    ui.add(Slider::new(&mut p.substeps, 1..=100).logarithmic(true).text("substeps")).on_hover_text(
+    ui.add(slider(&mut p.substeps, 1..=100).logarithmic(true).text("substeps")).on_hover_text(
         "Each step of h split in n, each with all the passes: stretch falls as 1/n² (Small Steps), cost grows as n.",
     );
     if p.substeps > 1 && p.relaxations < 2 {
@@ -88,7 +92,7 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
             "One pass per substep makes a grid with both diagonals shiver, and can blow up: use 2 or more.",
         );
     }
-    ui.add(Slider::new(&mut p.over_relaxation, 1.0..=1.9).text("over-relaxation ω")).on_hover_text(
+    ui.add(slider(&mut p.over_relaxation, 1.0..=1.9).text("over-relaxation ω")).on_hover_text(
         "Each projection moves ω of the way: helps chains, but on the seed's cloth ω > 1 left more strain (measured).",
     );
     ui.add(small_values(&mut p.stretch_compliance, 1e-2, 1e-9, "rigid").text("stretch α (m/N)"))
@@ -101,7 +105,7 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
         let mut on = p.tether_slack.is_some();
         ui.checkbox(&mut on, "tethers").on_hover_text("Keep every particle within its rest path length of a pin.");
         let mut slack = p.tether_slack.unwrap_or(0.05);
-        ui.add_enabled(on, Slider::new(&mut slack, 0.0..=0.5).text("slack"));
+        ui.add_enabled(on, slider(&mut slack, 0.0..=0.5).text("slack"));
         p.tether_slack = on.then_some(slack);
     });
     ui.horizontal(|ui| {
@@ -114,7 +118,7 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
 /// A logarithmic slider from 0 to `max` for values that span decades,
 /// shown as `1.0e-5` (and `zero` at 0) so the panel keeps its width.
 fn small_values<'a>(value: &'a mut f32, max: f32, smallest: f64, zero: &'static str) -> Slider<'a> {
-    Slider::new(value, 0.0..=max)
+    slider(value, 0.0..=max)
         .logarithmic(true)
         .smallest_positive(smallest)
         .custom_formatter(move |v, _| if v == 0.0 { zero.to_string() } else { format!("{v:.1e}") })
@@ -124,13 +128,19 @@ fn small_values<'a>(value: &'a mut f32, max: f32, smallest: f64, zero: &'static 
         })
 }
 
+/// A slider over `range` that never clamps: values outside it, from the
+/// scene or typed in, are kept as they are (see [`solver_controls`]).
+fn slider<Num: egui::emath::Numeric>(value: &mut Num, range: std::ops::RangeInclusive<Num>) -> Slider<'_> {
+    Slider::new(value, range).clamping(SliderClamping::Never)
+}
+
 /// Three numbers in a row; the drag speed follows the vector's size so
 /// that both 9.8 N and 0.0098 N can be adjusted.
 fn vector_row(ui: &mut Ui, label: &str, v: &mut Vec3) -> egui::Response {
     let speed = f64::from(v.abs().max_element()).max(1e-3) * 0.01;
     ui.horizontal(|ui| {
         for (value, axis) in [(&mut v.x, "x "), (&mut v.y, "y "), (&mut v.z, "z ")] {
-            ui.add(DragValue::new(value).speed(speed).prefix(axis).range(-1e3..=1e3).max_decimals(5));
+            ui.add(DragValue::new(value).speed(speed).prefix(axis).max_decimals(5));
         }
         ui.label(label)
     })
@@ -165,11 +175,70 @@ fn wind_controls(ui: &mut Ui, wind: &mut Wind, weight: f32) {
     match wind {
         Wind::None => {}
         Wind::Seed { scale } => {
-            ui.add(Slider::new(scale, 0.0..=5.0).logarithmic(true).smallest_positive(1e-4).text("wind scale"))
+            ui.add(slider(scale, 0.0..=5.0).logarithmic(true).smallest_positive(1e-4).text("wind scale"))
                 .on_hover_text("Multiplies the seed's equation 4.");
         }
         Wind::Constant { force } => {
             vector_row(ui, "wind (N)", force);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Values a scene may hold (they pass `SolverParams::validate`) but that
+    /// lie outside every slider's range.
+    fn beyond_the_sliders() -> SolverParams {
+        let params = SolverParams {
+            relaxations: 200,
+            damping: 0.7,
+            dt: 0.5,
+            mass: 50.0,
+            gravity: Vec3::new(0.0, -5000.0, 0.0),
+            wind: Wind::Seed { scale: 20.0 },
+            substeps: 500,
+            over_relaxation: 1.95,
+            tether_slack: Some(0.8),
+            ..SolverParams::default()
+        };
+        assert_eq!(params.validate(), Ok(()), "the test's values must be allowed");
+        params
+    }
+
+    /// Draws the panel's solver part once, headless, as the viewer does each
+    /// frame, and returns what it asked for.
+    fn one_frame(params: &SolverParams) -> Vec<UiCommand> {
+        let ctx = egui::Context::default();
+        let mut commands = Vec::new();
+        let scene = SceneDefaults { params, solver: SolverKind::Fast };
+        let mut output = ctx.run_ui(egui::RawInput::default(), |ui| {
+            commands = solver_controls(ui, params, SolverKind::Fast, "", scene);
+        });
+        // No renderer here to upload the font atlas to.
+        output.textures_delta.clear();
+        commands
+    }
+
+    #[test]
+    fn a_scene_value_outside_a_slider_is_kept_not_clamped() {
+        let params = beyond_the_sliders();
+        // A clamping slider would rewrite 200 relaxations to 100 on the first
+        // frame and send it as if the user had dragged it.
+        assert!(one_frame(&params).is_empty());
+        // Same for the accuracy options, drawn open.
+        let ctx = egui::Context::default();
+        let mut edited = params.clone();
+        let mut output = ctx.run_ui(egui::RawInput::default(), |ui| accuracy_controls(ui, &mut edited));
+        output.textures_delta.clear();
+        assert_eq!(edited, params);
+    }
+
+    #[test]
+    fn values_inside_the_sliders_are_left_alone_too() {
+        // The counter-check: with the scene's own values nothing is sent
+        // either, so the test above fails only through clamping.
+        assert!(one_frame(&SolverParams::default()).is_empty());
     }
 }
