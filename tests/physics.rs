@@ -35,10 +35,18 @@ fn free_fall_follows_the_discrete_solution_step_by_step() {
                 let (h, d) = (f64::from(params.dt), f64::from(damping));
                 let y = verlet_free_fall(0.0, 2.0, a, h, d, k);
                 let x = verlet_free_fall(0.0, 1.0, 0.0, h, d, k);
-                // f32 positions accumulate about one rounding per step at the
-                // scale of |y| (up to 600 m here): 200 · 2⁻²⁴ · 600 ≈ 7e-3 is a
-                // loose bound; in practice the error is far smaller.
-                let tol = 1e-6 * (1.0 + y.abs()) * k as f64;
+                // A step of equation 1 rounds four times in f32 (difference,
+                // scaling by 1 − δ, the two additions), each by at most half
+                // an ulp of 1 + |y| (a bound on every intermediate here): at
+                // most u = 4 · 2⁻²⁴ = 2⁻²² relative per step. Position Verlet
+                // carries the velocity as x_j − x_{j−1}, so an error made at
+                // step j is repeated by every later step: after k steps the
+                // worst case is u (1 + |y|) k(k + 1)/2. That bound is loose
+                // late in the run (11 m at k = 200, where |y| ≈ 2400 m; the
+                // errors seen are millimetres) but far below what a wrong
+                // equation gives: a missing or doubled h² a term is off by
+                // |a| h² k²/2 ≈ 0.06 k² m, over 200 × the bound for k ≤ 200.
+                let tol = f64::from(f32::EPSILON) / 2.0 * (1.0 + y.abs()) * (k * (k + 1) / 2) as f64;
                 assert!((f64::from(p.y) - y).abs() < tol, "{kind:?} δ={damping} step {k}: y {} vs {y}", p.y);
                 assert!((f64::from(p.x) - x).abs() < tol, "{kind:?} δ={damping} step {k}: x {} vs {x}", p.x);
                 if k == 1 {
@@ -49,6 +57,29 @@ fn free_fall_follows_the_discrete_solution_step_by_step() {
                 }
             }
         }
+    }
+}
+
+#[test]
+fn kinetic_energy_uses_the_substep_velocity() {
+    // One particle at rest, a = f/m = −9.8/0.2 = −49 m/s², δ = 0, h = 0.05 s
+    // split in n = 4 substeps of τ = h/n = 0.0125 s. The first substep is the
+    // Euler start (x_1 = x_0, since v₀ = 0); each later one adds τ² a to the
+    // displacement x_k − x_{k−1}. After K = 10 steps, N = nK = 40 substeps:
+    //   x_N − x_{N−1} = (N − 1) τ² a,  v = (N − 1) τ a = 39 · 0.0125 · 49
+    //                 = 23.8875 m/s,   E = ½ m v² = 0.1 · 570.61 = 57.061 J.
+    // Dividing the last substep's displacement by the whole h instead
+    // would give v/4 and E/16 = 3.57 J.
+    for kind in SolverKind::ALL {
+        let params = SolverParams { damping: 0.0, substeps: 4, wind: Wind::None, ..SolverParams::default() };
+        let mut sim = Simulation::with_solver(lone_particle(Vec3::ZERO, Vec3::ZERO), params, kind).unwrap();
+        sim.advance(10).unwrap();
+        let v = 39.0 * 0.0125 * 49.0;
+        let expected = 0.5 * 0.2 * v * v;
+        // f32 displacements of ~0.3 m are exact to ~3e-8 relative; 1e-5
+        // relative leaves room for the rounding of 40 substeps.
+        let energy = sim.kinetic_energy();
+        assert!((energy - expected).abs() < 1e-5 * expected, "{kind:?}: {energy} J vs {expected} J");
     }
 }
 

@@ -106,9 +106,10 @@ fn obj_text_parses_faces_as_triangles() {
     assert_eq!(p.len(), 4);
     assert_eq!(t.len(), 2);
     assert!(file::parse_obj("# nothing\n").is_err());
-    // A face naming vertices that do not exist is an error, from tobj or from the mesh check.
+    // An OBJ file that cannot be read names the scene's [obj] table.
     let e = err("[obj]\npath = \"x\"\n");
     assert!(e.contains("[obj]"), "{e}");
+    // A face naming vertices that do not exist is an error, from tobj or from the mesh check.
     let bad = file::parse_obj("v 0 0 0\nf 1 2 3\n")
         .and_then(|(p, t)| crate::sim::ClothMesh::from_triangles(p, t, &[], None).map_err(|e| e.to_string()));
     assert!(bad.is_err(), "{bad:?}");

@@ -415,9 +415,16 @@ impl Simulation {
     pub fn strain(&self) -> Strain {
         metrics::strain(&self.positions, &self.bars)
     }
-    /// Kinetic energy of the free particles, joules.
+    /// Kinetic energy of the free particles, joules, from the velocity of the
+    /// last substep, (x − x_prev)/(h/n).
     pub fn kinetic_energy(&self) -> f64 {
-        metrics::kinetic_energy(&self.positions, &self.previous, &self.fixed, self.params.mass, self.params.dt)
+        metrics::kinetic_energy(
+            &self.positions,
+            &self.previous,
+            &self.fixed,
+            self.params.mass,
+            self.params.substep_dt(),
+        )
     }
     /// Gravitational potential energy of the free particles, joules.
     pub fn potential_energy(&self) -> f64 {
