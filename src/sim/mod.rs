@@ -40,7 +40,10 @@
 //! its ends along it so that it regains its rest length, each end in
 //! proportion to its inverse mass ([`relax`]): a free–free bar of equal
 //! masses moves both ends half way, a free–fixed bar moves the free end the
-//! whole way, and a bar joining two fixed particles is never visited. Passes
+//! whole way, and a bar joining two fixed particles is dropped when the
+//! solver is built (the SIMD grid path drops every operation whose lanes are
+//! all such bars; a lane of one inside an operation that moves free
+//! particles has zero weight at both ends and moves nothing). Passes
 //! are Gauss–Seidel (each projection sees the positions that earlier
 //! projections left) and repeat `relaxations` times per step. This is
 //! position-based dynamics with stiffness 1 (Jakobsen 2001; Müller et al.
