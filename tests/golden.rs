@@ -74,7 +74,7 @@ fn large() {
 fn readback_strips_row_padding() {
     let gpu = common::gpu();
     let (w, h) = (37, 9);
-    let target = OffscreenTarget::new(&gpu.device, w, h);
+    let target = OffscreenTarget::new(&gpu.device, w, h).unwrap();
     let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
     {
         let colour = wgpu::Color { r: 1.0, g: 0.5, b: 0.0, a: 1.0 };

@@ -247,7 +247,7 @@ fn f12_saves_a_screenshot_and_says_where() {
     let mut v = viewer_for("hammock", &dir, format);
     frame(&mut v, 0, vec![]);
     let f = frame(&mut v, 1, vec![key(Key::F12)]);
-    let target = OffscreenTarget::with_format(&common::gpu().device, WINDOW.0, WINDOW.1, format);
+    let target = OffscreenTarget::with_format(&common::gpu().device, WINDOW.0, WINDOW.1, format).unwrap();
     v.draw(&target.view, WINDOW, &f.ui);
     let files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
     assert_eq!(files.len(), 1, "{files:?}");
@@ -258,4 +258,25 @@ fn f12_saves_a_screenshot_and_says_where() {
     assert!(sky[2] > sky[0], "BGRA read back as RGBA: {sky:?}");
     assert!(v.toasts().iter().any(|t| !t.error && t.text.contains("saved")));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_image_larger_than_the_device_allows_is_an_error_not_a_panic() {
+    let device = &common::gpu().device;
+    let limits = device.limits();
+    let side = limits.max_texture_dimension_2d;
+    // One pixel wider than the largest texture.
+    let e = OffscreenTarget::new(device, side + 1, 1).unwrap_err();
+    assert!(matches!(e, drape::render::ReadbackError::TooLarge { .. }), "{e}");
+    assert!(e.to_string().contains("at most"), "{e}");
+    // Within the side but beyond the largest readback buffer, where the
+    // device's buffer limit is small enough to reach (rows are padded to
+    // 256 bytes: a 64-pixel row takes exactly 256).
+    let rows = limits.max_buffer_size / 256 + 1;
+    if rows <= u64::from(side) {
+        let e = OffscreenTarget::new(device, 64, rows as u32).unwrap_err();
+        assert!(matches!(e, drape::render::ReadbackError::TooLarge { .. }), "{e}");
+    }
+    // A small image is accepted.
+    assert!(OffscreenTarget::new(device, 64, 64).is_ok());
 }

@@ -26,7 +26,11 @@ pub fn snapshot(
     options: &ViewOptions,
     (width, height): (u32, u32),
 ) -> Result<image::RgbaImage, ReadbackError> {
-    let target = OffscreenTarget::new(&gpu.device, width, height);
+    let target = OffscreenTarget::new(&gpu.device, width, height)?;
+    // Whatever the GPU rejects while drawing (out of memory for a large
+    // image, most likely) comes back as an error, not a panic.
+    let validation = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let memory = gpu.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
     renderer.update(sim);
     let frame = FrameSpec {
         camera: *camera,
@@ -62,6 +66,14 @@ pub fn snapshot(
         legend = Some((painter, ui));
     }
     gpu.queue.submit(extra.into_iter().chain([encoder.finish()]));
+    // Scopes pop in reverse order of pushing.
+    let errors = [pollster::block_on(memory.pop()), pollster::block_on(validation.pop())];
+    if let Some(error) = errors.into_iter().flatten().next() {
+        if let Some((mut painter, ui)) = legend {
+            painter.free_textures(&ui);
+        }
+        return Err(ReadbackError::Gpu(error.to_string()));
+    }
     let image = target.read(&gpu.device, &gpu.queue);
     if let Some((mut painter, ui)) = legend {
         painter.free_textures(&ui);

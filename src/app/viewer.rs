@@ -611,7 +611,7 @@ impl Viewer {
     /// call [`Self::draw`] or [`Self::skip_draw`] for that.
     pub fn render_image(&mut self, size: (u32, u32), ui: &UiFrame) -> Result<image::RgbaImage, ReadbackError> {
         // In the format the renderer and egui were made for (the window's).
-        let target = OffscreenTarget::with_format(&self.gpu.device, size.0, size.1, self.renderer.format());
+        let target = OffscreenTarget::with_format(&self.gpu.device, size.0, size.1, self.renderer.format())?;
         self.record_and_submit(&target.view, size, ui);
         target.read(&self.gpu.device, &self.gpu.queue)
     }

@@ -105,12 +105,18 @@ impl Gpu {
 }
 
 /// The device the renderer asks for: WebGL2-level limits (so that old GL
-/// drivers qualify) with the adapter's own texture size limits.
+/// drivers qualify) with the adapter's own texture size limits and largest
+/// buffer (so a large `drape render` image can be read back).
 fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
+    let available = adapter.limits();
+    let max_buffer_size = available.max_buffer_size;
     wgpu::DeviceDescriptor {
         label: Some("drape"),
         required_features: wgpu::Features::empty(),
-        required_limits: wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()),
+        required_limits: wgpu::Limits {
+            max_buffer_size,
+            ..wgpu::Limits::downlevel_webgl2_defaults().using_resolution(available)
+        },
         experimental_features: wgpu::ExperimentalFeatures::disabled(),
         memory_hints: wgpu::MemoryHints::Performance,
         trace: wgpu::Trace::Off,

@@ -65,6 +65,28 @@ pub enum ReadbackError {
     /// The texture's format is not 8-bit RGBA or BGRA.
     #[error("cannot read back a {0:?} texture as RGBA8")]
     Format(wgpu::TextureFormat),
+    /// The image is larger than the device can hold as one texture or read
+    /// back in one buffer.
+    #[error(
+        "a {width} × {height} image is too large for this adapter: at most {max_side} pixels a side and \
+         {max_bytes} bytes of pixels ({width} × {height} needs {needed} bytes); ask for a smaller size"
+    )]
+    TooLarge {
+        /// Asked-for width, pixels.
+        width: u32,
+        /// Asked-for height, pixels.
+        height: u32,
+        /// The device's largest 2-D texture side, pixels.
+        max_side: u32,
+        /// The device's largest buffer, bytes.
+        max_bytes: u64,
+        /// The readback buffer this image needs, bytes.
+        needed: u64,
+    },
+    /// The GPU rejected the work (a validation or out-of-memory error
+    /// caught while drawing the image).
+    #[error("the GPU could not draw the image: {0}")]
+    Gpu(String),
 }
 
 /// A single-sampled colour texture to render into and read back.
@@ -82,14 +104,32 @@ impl OffscreenTarget {
     pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
     /// A `width × height` target in [`Self::FORMAT`].
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<Self, ReadbackError> {
         Self::with_format(device, width, height, Self::FORMAT)
     }
 
     /// A `width × height` target in `format`, which must be 8-bit RGBA or
     /// BGRA to be read back (a window's surface format, for screenshots
-    /// drawn by a renderer made for the window).
-    pub fn with_format(device: &wgpu::Device, width: u32, height: u32, format: wgpu::TextureFormat) -> Self {
+    /// drawn by a renderer made for the window). Sizes the device cannot
+    /// hold, as a texture or as the buffer [`Self::read`] copies into, are
+    /// an error here rather than a wgpu validation panic later.
+    pub fn with_format(
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+        format: wgpu::TextureFormat,
+    ) -> Result<Self, ReadbackError> {
+        let limits = device.limits();
+        let needed = u64::from(padded_row_bytes(width.max(1))) * u64::from(height.max(1));
+        if width.max(height) > limits.max_texture_dimension_2d || needed > limits.max_buffer_size {
+            return Err(ReadbackError::TooLarge {
+                width,
+                height,
+                max_side: limits.max_texture_dimension_2d,
+                max_bytes: limits.max_buffer_size,
+                needed,
+            });
+        }
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("offscreen"),
             size: wgpu::Extent3d { width: width.max(1), height: height.max(1), depth_or_array_layers: 1 },
@@ -101,7 +141,7 @@ impl OffscreenTarget {
             view_formats: &[],
         });
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        Self { texture, view }
+        Ok(Self { texture, view })
     }
 
     /// Copies the texture to the CPU as an RGBA image (waits for the GPU).
@@ -127,7 +167,7 @@ pub fn read_texture(
     };
     let (width, height) = (texture.width(), texture.height());
     let row = width * 4;
-    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded_row = padded_row_bytes(width);
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: u64::from(padded_row) * u64::from(height),
@@ -169,6 +209,12 @@ pub fn read_texture(
     }
     image::RgbaImage::from_raw(width, height, pixels)
         .ok_or_else(|| ReadbackError::Map("the copied image has the wrong size".into()))
+}
+
+/// Bytes of one row of 8-bit RGBA pixels in a buffer copy, padded to
+/// [`wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`].
+fn padded_row_bytes(width: u32) -> u32 {
+    (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
 }
 
 /// Writes an RGBA image as a PNG with the strongest compression (screenshots
