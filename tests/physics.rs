@@ -84,6 +84,29 @@ fn kinetic_energy_uses_the_substep_velocity() {
 }
 
 #[test]
+fn a_particle_pinned_and_freed_starts_from_rest() {
+    // A lone particle falls for 10 steps (a = −49 m/s², h = 0.05 s), is
+    // pinned for 5 and freed. Pinned, it is at rest: the first free step of
+    // equation 1 moves it by (1 − δ)·0 + h² a = −0.1225 m exactly as from
+    // rest. Keeping the velocity it had when pinned, (x_10 − x_9) ≈ −1.1 m
+    // a step, would move it about ten times as far.
+    for kind in SolverKind::ALL {
+        let mut sim =
+            Simulation::with_solver(lone_particle(Vec3::ZERO, Vec3::ZERO), SolverParams::default(), kind).unwrap();
+        sim.advance(10).unwrap();
+        sim.set_fixed(0, true).unwrap();
+        let pinned_at = sim.positions()[0];
+        sim.advance(5).unwrap();
+        assert_eq!(sim.positions()[0], pinned_at, "{kind:?}: a fixed particle does not move");
+        sim.set_fixed(0, false).unwrap();
+        sim.step().unwrap();
+        let moved = sim.positions()[0] - pinned_at;
+        // f32 rounding of y ≈ −5.5 m: a few ulps, 1e-6 m.
+        assert!((moved.y + 0.1225).abs() < 1e-5 && moved.x == 0.0, "{kind:?}: moved {moved}");
+    }
+}
+
+#[test]
 fn damping_alone_gives_the_geometric_series() {
     // No force, v₀ = 2 m/s along x, h = 0.05 s, δ = 0.1. Equation 2 moves the
     // particle h v₀ = 0.1 m; each later step moves it (1 − δ) times the last:

@@ -365,10 +365,18 @@ impl Simulation {
 
     /// Fixes or frees a particle. Bars between two fixed particles drop out of
     /// the relaxation and come back when one end is freed.
+    ///
+    /// A particle being fixed comes to rest (its previous position becomes
+    /// its current one), so one freed later starts from rest rather than
+    /// with the velocity it had when it was fixed; moving it while fixed
+    /// ([`Self::move_particle`], a drag) gives it that move's velocity.
     pub fn set_fixed(&mut self, index: usize, fixed: bool) -> Result<(), SimError> {
         self.check_index(index)?;
         if self.fixed[index] != fixed {
             self.fixed[index] = fixed;
+            if fixed {
+                self.previous[index] = self.positions[index];
+            }
             self.bars = active_bars(&self.mesh, &self.fixed);
             self.rebuild_engine();
         }
