@@ -26,6 +26,8 @@
 //! cores. `cargo bench --bench
 //! accuracy -- --quick` runs a reduced sweep (for CI smoke tests).
 
+mod common;
+
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -454,8 +456,7 @@ fn cheapest_table(rows: &[Row], scene: &str, what: &str, metric: Metric, levels:
 }
 
 fn chart(path: &std::path::Path, rows: &[Row], panels: &[Panel]) -> Result<(), Box<dyn std::error::Error>> {
-    plotters::style::register_font("sans-serif", FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT)
-        .map_err(|_| "the bundled font does not load")?;
+    common::register_chart_font()?;
     let (width, height) = (1600u32, 1200u32);
     let mut pixels = vec![0u8; (width * height * 3) as usize];
     {

@@ -5,6 +5,8 @@
 //! `cargo bench --bench solver`; throughput is in bar projections
 //! (bars × relaxations per step).
 
+mod common;
+
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
@@ -71,20 +73,10 @@ fn scale(c: &mut Criterion) {
     group.finish();
 }
 
-/// Criterion with its HTML charts. Criterion draws them with plotters, which
-/// in this workspace measures text with `ab_glyph` (the feature the accuracy
-/// chart needs) and so finds no system font: register egui's bundled one, as
-/// the accuracy benchmark does, or the first chart panics on a machine
-/// without fontconfig fonts.
+/// Criterion with its HTML charts, which need a font registered first.
 fn config() -> Criterion {
-    if plotters::style::register_font(
-        "sans-serif",
-        plotters::style::FontStyle::Normal,
-        epaint_default_fonts::UBUNTU_LIGHT,
-    )
-    .is_err()
-    {
-        eprintln!("the bundled chart font does not load; criterion's charts may fail");
+    if let Err(e) = common::register_chart_font() {
+        eprintln!("{e}; criterion's charts may fail");
     }
     Criterion::default()
 }

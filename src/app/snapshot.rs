@@ -68,13 +68,10 @@ pub fn snapshot(
     gpu.queue.submit(extra.into_iter().chain([encoder.finish()]));
     // Scopes pop in reverse order of pushing.
     let errors = [pollster::block_on(memory.pop()), pollster::block_on(validation.pop())];
-    if let Some(error) = errors.into_iter().flatten().next() {
-        if let Some((mut painter, ui)) = legend {
-            painter.free_textures(&ui);
-        }
-        return Err(ReadbackError::Gpu(error.to_string()));
-    }
-    let image = target.read(&gpu.device, &gpu.queue);
+    let image = match errors.into_iter().flatten().next() {
+        Some(error) => Err(ReadbackError::Gpu(error.to_string())),
+        None => target.read(&gpu.device, &gpu.queue),
+    };
     if let Some((mut painter, ui)) = legend {
         painter.free_textures(&ui);
     }

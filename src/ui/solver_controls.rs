@@ -207,17 +207,18 @@ mod tests {
         params
     }
 
-    /// Draws the panel's solver part once, headless, as the viewer does each
-    /// frame, and returns what it asked for.
-    fn one_frame(params: &SolverParams) -> Vec<UiCommand> {
-        let ctx = egui::Context::default();
-        let mut commands = Vec::new();
-        let scene = SceneDefaults { params, solver: SolverKind::Fast };
-        let mut output = ctx.run_ui(egui::RawInput::default(), |ui| {
-            commands = solver_controls(ui, params, SolverKind::Fast, "", scene);
-        });
+    /// Runs `draw` in one headless egui frame, as the viewer does each frame.
+    fn headless(mut draw: impl FnMut(&mut Ui)) {
+        let mut output = egui::Context::default().run_ui(egui::RawInput::default(), |ui| draw(ui));
         // No renderer here to upload the font atlas to.
         output.textures_delta.clear();
+    }
+
+    /// Draws the panel's solver part once and returns what it asked for.
+    fn one_frame(params: &SolverParams) -> Vec<UiCommand> {
+        let mut commands = Vec::new();
+        let scene = SceneDefaults { params, solver: SolverKind::Fast };
+        headless(|ui| commands = solver_controls(ui, params, SolverKind::Fast, "", scene));
         commands
     }
 
@@ -228,10 +229,8 @@ mod tests {
         // frame and send it as if the user had dragged it.
         assert!(one_frame(&params).is_empty());
         // Same for the accuracy options, drawn open.
-        let ctx = egui::Context::default();
         let mut edited = params.clone();
-        let mut output = ctx.run_ui(egui::RawInput::default(), |ui| accuracy_controls(ui, &mut edited));
-        output.textures_delta.clear();
+        headless(|ui| accuracy_controls(ui, &mut edited));
         assert_eq!(edited, params);
     }
 
