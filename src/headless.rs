@@ -120,7 +120,7 @@ pub fn run(
     let projections = sim.projections_per_step() as f64 * steps as f64;
     Ok(RunSummary {
         particles: sim.positions().len(),
-        bars: sim.bars().len(),
+        bars: sim.movable_bar_count(),
         steps,
         relaxations: sim.params().relaxations,
         substeps: sim.params().substeps,

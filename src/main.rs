@@ -79,6 +79,12 @@ struct SolverOverrides {
     /// First step: euler (the seed's equation 2) or second-order.
     #[arg(long, value_parser = parse_start)]
     start: Option<drape::sim::Start>,
+    /// Metres every particle keeps from collider surfaces (0–10).
+    #[arg(long)]
+    thickness: Option<f32>,
+    /// Coulomb friction of colliders that give none of their own (0–100).
+    #[arg(long)]
+    friction: Option<f32>,
 }
 
 impl SolverOverrides {
@@ -95,6 +101,8 @@ impl SolverOverrides {
         params.tether_slack = self.tether_slack.or(params.tether_slack);
         params.tolerance = self.tolerance.unwrap_or(params.tolerance);
         params.start = self.start.unwrap_or(params.start);
+        params.thickness = self.thickness.unwrap_or(params.thickness);
+        params.friction = self.friction.unwrap_or(params.friction);
         params
     }
 }
@@ -241,7 +249,8 @@ fn load_scene(name: &str, overrides: &SolverOverrides) -> anyhow::Result<(scene:
     let params = overrides.apply(scene.params.clone());
     params.validate().context("invalid command-line override")?;
     let solver = overrides.solver.unwrap_or(scene.solver);
-    let sim = drape::sim::Simulation::with_solver(scene.mesh.clone(), params, solver)?;
+    let sim = drape::sim::Simulation::with_solver(scene.mesh.clone(), params, solver)?
+        .with_colliders(scene.colliders.clone());
     Ok((scene, sim))
 }
 

@@ -63,6 +63,18 @@ fn tablecloth() {
 }
 
 #[test]
+fn drape_sphere() {
+    // Contact: a cloth over a ball on the ground, its folds held by friction.
+    common::assert_golden("drape-sphere", &render_scene("drape-sphere", 150, false));
+}
+
+#[test]
+fn table() {
+    // Contact with boxes: a tablecloth on a table top on four legs.
+    common::assert_golden("table", &render_scene("table", 150, false));
+}
+
+#[test]
 fn large() {
     // 65 536 particles: few steps keep the test quick.
     common::assert_golden("large", &render_scene("large", 3, false));

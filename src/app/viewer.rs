@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use egui::{Key, Modifiers, PointerButton, Ui};
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 use super::clock::{Clock, WallClock};
 use super::grab::{Grab, ViewGeometry, pick};
@@ -89,6 +89,14 @@ enum Drag {
     Orbit,
     Pan,
     Grab(Grab),
+    /// Shift+drag on a collider: it follows the cursor in the plane facing
+    /// the camera through the point first hit.
+    Collider {
+        index: usize,
+        anchor: Vec3,
+        normal: Vec3,
+        start: crate::sim::Pose,
+    },
 }
 
 /// The viewer's state and behaviour, independent of any window.
@@ -388,7 +396,14 @@ impl Viewer {
         {
             let geometry = self.view_geometry();
             let picked = pick(self.sim.positions(), self.sim.mesh().triangles(), &geometry, cursor);
+            let collider = modifiers.shift.then(|| self.pick_collider(&geometry, cursor)).flatten();
             match picked {
+                _ if collider.is_some() => {
+                    if let Some((index, anchor, start)) = collider {
+                        let ray = geometry.camera.ray(cursor, geometry.size, geometry.world_radius);
+                        self.drag = Drag::Collider { index, anchor, normal: -ray.direction, start };
+                    }
+                }
                 Some(i) if modifiers.ctrl || modifiers.command => self.toggle_pin(i),
                 Some(i) => match Grab::start(&mut self.sim, i, &geometry, cursor) {
                     Ok(grab) => {
@@ -418,10 +433,31 @@ impl Viewer {
                     grab.drag_to(&geometry, cursor);
                 }
             }
+            Drag::Collider { index, anchor, normal, start } => {
+                let ray = cursor.map(|c| geometry.camera.ray(c, geometry.size, geometry.world_radius));
+                let denominator = ray.map_or(0.0, |r| r.direction.dot(*normal));
+                if let Some(ray) = ray
+                    && denominator.abs() > 1e-6
+                {
+                    let t = (*anchor - ray.origin).dot(*normal) / denominator;
+                    let to = ray.origin + ray.direction * t;
+                    let pose = crate::sim::Pose { translation: start.translation + (to - *anchor), ..*start };
+                    let index = *index;
+                    if let Err(e) = self.sim.move_collider(index, pose) {
+                        self.toast(e.to_string(), true);
+                    }
+                    self.touched();
+                }
+            }
             Drag::None => {}
         }
+        if let Some(ground) = self.renderer.ground_plane() {
+            self.camera.keep_above(ground);
+        }
         let released = match self.drag {
-            Drag::Orbit | Drag::Grab(_) => !pointer.primary_down() || pointer.primary_released(),
+            Drag::Orbit | Drag::Grab(_) | Drag::Collider { .. } => {
+                !pointer.primary_down() || pointer.primary_released()
+            }
             Drag::Pan => !pointer.secondary_down() && !pointer.middle_down(),
             Drag::None => false,
         };
@@ -431,6 +467,29 @@ impl Viewer {
         if let Drag::Grab(_) = self.drag {
             ui.ctx().set_cursor_icon(egui::CursorIcon::Grabbing);
         }
+    }
+
+    /// The collider (other than a plane) under the cursor: its index, the
+    /// point hit and its pose now.
+    fn pick_collider(&self, view: &ViewGeometry, cursor: Vec2) -> Option<(usize, Vec3, crate::sim::Pose)> {
+        let ray = view.camera.ray(cursor, view.size, view.world_radius);
+        let far = ray.origin + ray.direction * (4.0 * view.world_radius + view.camera.distance);
+        let poses = self.sim.collider_poses();
+        let mut best: Option<(f32, usize, Vec3, crate::sim::Pose)> = None;
+        for (k, (c, pose)) in self.sim.colliders().iter().zip(poses).enumerate() {
+            if matches!(c.shape, crate::sim::Shape::Plane { .. }) {
+                continue;
+            }
+            let (from, to) = (pose.inverse_apply(ray.origin), pose.inverse_apply(far));
+            if let Some(entry) = c.shape.entry(from, to) {
+                let hit = pose.apply(entry.point);
+                let d = hit.distance(ray.origin);
+                if best.is_none_or(|b| d < b.0) {
+                    best = Some((d, k, hit, pose));
+                }
+            }
+        }
+        best.map(|(_, k, hit, pose)| (k, hit, pose))
     }
 
     fn end_drag(&mut self) {

@@ -134,6 +134,18 @@ impl OrbitCamera {
         Vec3::new(sy * cp, sp, cy * cp)
     }
 
+    /// Raises the pitch, if needed, so the eye stays above the plane y =
+    /// `height` (by 2 % of the distance): the camera never looks from under
+    /// a ground it could not see through. A target below the ground cannot
+    /// be helped and is left alone.
+    pub fn keep_above(&mut self, height: f32) {
+        let need = (height + 0.02 * self.distance - self.target.y) / self.distance;
+        if need < 1.0 {
+            let lowest = need.max(-1.0).asin().min(MAX_PITCH);
+            self.pitch = self.pitch.max(lowest);
+        }
+    }
+
     /// The eye's position.
     pub fn eye(&self) -> Vec3 {
         self.target + self.backward() * self.distance
@@ -258,6 +270,19 @@ mod tests {
                 assert!(p.x >= 0.0 && p.x <= size.x && p.y >= 0.0 && p.y <= size.y, "{corner} → {p} ({aspect})");
             }
         }
+    }
+
+    #[test]
+    fn keep_above_lifts_an_eye_below_the_ground_and_leaves_others() {
+        let mut cam =
+            OrbitCamera { target: Vec3::new(0.0, 0.5, 0.0), pitch: -0.5, distance: 4.0, ..Default::default() };
+        assert!(cam.eye().y < 0.0);
+        cam.keep_above(0.0);
+        // 2 % of 4 m above the ground, to rounding.
+        assert!((cam.eye().y - 0.08).abs() < 1e-4, "{}", cam.eye());
+        let mut high = OrbitCamera { pitch: 0.3, ..cam };
+        high.keep_above(0.0);
+        assert_eq!(high.pitch, 0.3);
     }
 
     #[test]

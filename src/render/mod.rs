@@ -16,6 +16,7 @@
 //! themselves, so the same frame looks the same on either kind of target.
 
 pub mod camera;
+pub mod colliders;
 pub mod geometry;
 pub mod gpu;
 mod pipelines;

@@ -14,6 +14,8 @@ pub(crate) struct Pipelines {
     pub wireframe: wgpu::RenderPipeline,
     pub bars: wgpu::RenderPipeline,
     pub points: wgpu::RenderPipeline,
+    pub colliders: wgpu::RenderPipeline,
+    pub collider_shadow: wgpu::RenderPipeline,
 }
 
 const SURFACE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
@@ -42,6 +44,12 @@ const SURFACE_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 3] = [
         attributes: &STRAIN_ATTRIBUTES,
     }),
 ];
+/// Colliders: positions and normals, world space.
+const COLLIDER_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(wgpu::VertexBufferLayout {
+    array_stride: 24,
+    step_mode: wgpu::VertexStepMode::Vertex,
+    attributes: &SURFACE_ATTRIBUTES,
+})];
 const BAR_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(wgpu::VertexBufferLayout {
     array_stride: 32,
     step_mode: wgpu::VertexStepMode::Instance,
@@ -138,6 +146,7 @@ impl Pipelines {
         let backdrop_module = module(shaders::BACKDROP);
         let lines_module = module(shaders::LINES);
         let points_module = module(shaders::POINTS);
+        let colliders_module = module(shaders::COLLIDERS);
 
         let build = |layer: Layer<'_>| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -246,6 +255,26 @@ impl Pipelines {
             depth: Depth::Opaque,
             blend: false,
         });
-        Self { frame_layout, sky, ground, shadow, surface, wireframe, bars, points }
+        let colliders = build(Layer {
+            label: "colliders",
+            module: &colliders_module,
+            vertex: "vs_collider",
+            fragment: "fs_collider",
+            buffers: &COLLIDER_BUFFERS,
+            topology: T::TriangleList,
+            depth: Depth::Opaque,
+            blend: false,
+        });
+        let collider_shadow = build(Layer {
+            label: "collider shadow",
+            module: &colliders_module,
+            vertex: "vs_collider_shadow",
+            fragment: "fs_collider_shadow",
+            buffers: &COLLIDER_BUFFERS,
+            topology: T::TriangleList,
+            depth: Depth::StencilOnce,
+            blend: true,
+        });
+        Self { frame_layout, sky, ground, shadow, surface, wireframe, bars, points, colliders, collider_shadow }
     }
 }

@@ -7,12 +7,25 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::camera::OrbitCamera;
+use super::colliders;
 use super::geometry::{self, BarInstance, MeshLayout, PointInstance, SurfaceVertex};
 use super::gpu::Gpu;
 use super::pipelines::Pipelines;
 use super::targets::{self, FrameTargets};
 use super::view::{ViewOptions, strain_ramp_linear};
 use crate::sim::{ClothMesh, Simulation};
+
+/// The colliders' triangles, world space, rebuilt when they move.
+#[derive(Debug)]
+struct ColliderBuffers {
+    vertices: GrowingBuffer,
+    indices: GrowingBuffer,
+    index_count: u32,
+    /// The height of a horizontal plane collider facing up: the ground.
+    ground: Option<f32>,
+    scratch_vertices: Vec<geometry::SurfaceVertex>,
+    scratch_indices: Vec<u32>,
+}
 
 /// Direction towards the key light, world space (before normalising): high,
 /// and from the side the scenes' cameras look from, so the shadow falls
@@ -89,7 +102,11 @@ struct GrowingBuffer {
 
 impl GrowingBuffer {
     fn new(device: &wgpu::Device, label: &'static str, size: u64) -> Self {
-        Self { label, buffer: vertex_buffer(device, label, size) }
+        Self::with_usage(device, label, size, wgpu::BufferUsages::VERTEX)
+    }
+
+    fn with_usage(device: &wgpu::Device, label: &'static str, size: u64, usage: wgpu::BufferUsages) -> Self {
+        Self { label, buffer: vertex_buffer(device, label, size, usage) }
     }
 
     fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
@@ -97,17 +114,18 @@ impl GrowingBuffer {
             return;
         }
         if (bytes.len() as u64) > self.buffer.size() {
-            self.buffer = vertex_buffer(device, self.label, (bytes.len() as u64).next_power_of_two());
+            let usage = self.buffer.usage() - wgpu::BufferUsages::COPY_DST;
+            self.buffer = vertex_buffer(device, self.label, (bytes.len() as u64).next_power_of_two(), usage);
         }
         queue.write_buffer(&self.buffer, 0, bytes);
     }
 }
 
-fn vertex_buffer(device: &wgpu::Device, label: &'static str, size: u64) -> wgpu::Buffer {
+fn vertex_buffer(device: &wgpu::Device, label: &'static str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: size.max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
-        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        usage: usage | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
 }
@@ -267,6 +285,7 @@ pub struct Renderer {
     pipelines: Pipelines,
     targets: Option<FrameTargets>,
     cloth: Option<ClothBuffers>,
+    colliders: ColliderBuffers,
 }
 
 impl Renderer {
@@ -301,6 +320,14 @@ impl Renderer {
             pipelines,
             targets: None,
             cloth: None,
+            colliders: ColliderBuffers {
+                vertices: GrowingBuffer::new(&gpu.device, "collider vertices", 16),
+                indices: GrowingBuffer::with_usage(&gpu.device, "collider indices", 16, wgpu::BufferUsages::INDEX),
+                index_count: 0,
+                ground: None,
+                scratch_vertices: Vec::new(),
+                scratch_indices: Vec::new(),
+            },
         }
     }
 
@@ -339,6 +366,31 @@ impl Renderer {
             cloth.fixed.extend_from_slice(sim.fixed());
             cloth.stale = Stale::all();
         }
+        self.set_colliders(sim.colliders(), &sim.collider_poses());
+    }
+
+    /// Takes the colliders at their poses: a horizontal plane facing up
+    /// becomes the ground; everything else is tessellated and uploaded.
+    pub fn set_colliders(&mut self, colliders: &[crate::sim::Collider], poses: &[crate::sim::Pose]) {
+        let radius = self.layout().map_or(10.0, |l| l.ground.radius);
+        let c = &mut self.colliders;
+        c.ground = None;
+        c.scratch_vertices.clear();
+        c.scratch_indices.clear();
+        for (collider, pose) in colliders.iter().zip(poses) {
+            match colliders::ground_height(collider, pose) {
+                Some(h) if c.ground.is_none() => c.ground = Some(h),
+                _ => colliders::tessellate(collider, pose, radius, &mut c.scratch_vertices, &mut c.scratch_indices),
+            }
+        }
+        c.vertices.write(&self.device, &self.queue, bytemuck::cast_slice(&c.scratch_vertices));
+        c.indices.write(&self.device, &self.queue, bytemuck::cast_slice(&c.scratch_indices));
+        c.index_count = c.scratch_indices.len() as u32;
+    }
+
+    /// The height of the ground plane collider, if the scene has one.
+    pub fn ground_plane(&self) -> Option<f32> {
+        self.colliders.ground
     }
 
     /// Marks one particle (the one held or under the mouse), or none.
@@ -420,6 +472,18 @@ impl Renderer {
             pass.set_pipeline(&p.ground);
             pass.draw(0..4, 0..1);
         }
+        let colliders = &self.colliders;
+        let draw_colliders = options.colliders && colliders.index_count > 0;
+        if draw_colliders {
+            pass.set_vertex_buffer(0, colliders.vertices.buffer.slice(..));
+            pass.set_index_buffer(colliders.indices.buffer.slice(..), wgpu::IndexFormat::Uint32);
+            if options.ground {
+                pass.set_pipeline(&p.collider_shadow);
+                pass.draw_indexed(0..colliders.index_count, 0, 0..1);
+            }
+            pass.set_pipeline(&p.colliders);
+            pass.draw_indexed(0..colliders.index_count, 0, 0..1);
+        }
         let Some(cloth) = &self.cloth else { return };
         if options.surface && cloth.triangle_indices > 0 {
             pass.set_vertex_buffer(0, cloth.surface.buffer.slice(..));
@@ -455,10 +519,14 @@ impl Renderer {
         let view_proj = frame.camera.view_projection(viewport.aspect(), world_radius);
         let inverse = view_proj.inverse();
         let options = &frame.options;
-        let (ground, cell) = match self.layout() {
+        let (mut ground, cell) = match self.layout() {
             Some(l) => (l.ground, l.checker_cell),
             None => (geometry::Ground { height: 0.0, centre: glam::Vec2::ZERO, major_spacing: 1.0, radius: 30.0 }, 1.0),
         };
+        if let Some(height) = self.colliders.ground {
+            // A real ground: drawn where the collider is.
+            ground.height = height;
+        }
         let ppp = frame.pixels_per_point.max(0.25);
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         FrameUniform {

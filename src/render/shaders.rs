@@ -25,8 +25,12 @@ pub const LINES: ShaderFile = ShaderFile { name: "lines.wgsl", text: include_str
 /// Particles as dots.
 pub const POINTS: ShaderFile = ShaderFile { name: "points.wgsl", text: include_str!("../../shaders/points.wgsl") };
 
+/// Colliders and their shadows.
+pub const COLLIDERS: ShaderFile =
+    ShaderFile { name: "colliders.wgsl", text: include_str!("../../shaders/colliders.wgsl") };
+
 /// Every module the renderer builds.
-pub const FILES: [ShaderFile; 4] = [SURFACE, BACKDROP, LINES, POINTS];
+pub const FILES: [ShaderFile; 5] = [SURFACE, BACKDROP, LINES, POINTS, COLLIDERS];
 
 impl ShaderFile {
     /// The complete module source: [`COMMON`] then this file.

@@ -27,6 +27,8 @@ pub struct ViewOptions {
     pub wireframe: bool,
     /// The ground grid and the cloth's shadow on it.
     pub ground: bool,
+    /// The colliders (a ground plane collider is drawn as the ground).
+    pub colliders: bool,
     /// The strain at the red end of the ramp (0.1 = 10 % longer or shorter
     /// than at rest).
     pub strain_scale: f32,
@@ -54,6 +56,7 @@ impl ViewOptions {
             strain_colours: false,
             wireframe: false,
             ground: true,
+            colliders: true,
             strain_scale: 0.1,
             bar_width: 2.0,
             particle_radius: 2.5,

@@ -17,8 +17,19 @@ macro_rules! scene {
 }
 
 /// Every bundled scene, the seed's first.
-pub const BUNDLED: &[BundledScene] =
-    &[scene!("seed"), scene!("flag"), scene!("hammock"), scene!("chain"), scene!("tablecloth"), scene!("large")];
+pub const BUNDLED: &[BundledScene] = &[
+    scene!("seed"),
+    scene!("flag"),
+    scene!("hammock"),
+    scene!("chain"),
+    scene!("tablecloth"),
+    scene!("large"),
+    scene!("drape-sphere"),
+    scene!("table"),
+    scene!("slope"),
+    scene!("slope-steep"),
+    scene!("carried"),
+];
 
 /// Bundled OBJ meshes by file name.
 const MESHES: &[(&str, &str)] = &[("tablecloth.obj", include_str!("../../assets/meshes/tablecloth.obj"))];

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::colliders::{self, ColliderTable};
 use super::{CameraHint, Origin, Scene, SceneErrorKind, bundled};
 use crate::sim::{ClothMesh, Grid, GridPlane, Pins, SolverKind, SolverParams, Start, Wind};
 
@@ -34,6 +35,9 @@ pub struct SceneFile {
     /// `[camera]`.
     #[serde(default)]
     pub camera: CameraTable,
+    /// `[[collider]]`: any number.
+    #[serde(default, rename = "collider")]
+    pub colliders: Vec<ColliderTable>,
 }
 
 /// `[solver]`: every key optional, defaulting to the seed's value.
@@ -66,6 +70,10 @@ pub struct SolverTable {
     pub tether_slack: Option<f32>,
     /// `euler` or `second-order`.
     pub start: Start,
+    /// Metres kept from collider surfaces.
+    pub thickness: f32,
+    /// Coulomb coefficient of colliders that give none.
+    pub friction: f32,
 }
 
 impl Default for SolverTable {
@@ -85,6 +93,8 @@ impl Default for SolverTable {
             over_relaxation: p.over_relaxation,
             tether_slack: p.tether_slack,
             start: p.start,
+            thickness: p.thickness,
+            friction: p.friction,
         }
     }
 }
@@ -217,6 +227,11 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
             ));
         }
     };
+    let read = |path: &str| -> Result<(Vec<Vec3>, Vec<[u32; 3]>), SceneErrorKind> {
+        let (display, text) = obj_text(path, origin)?;
+        parse_obj(&text).map_err(|message| SceneErrorKind::Obj { path: display, message })
+    };
+    let colliders = colliders::build(&file.colliders, &read)?;
     let camera = camera_hint(&file.camera)?;
     let name = file.name.clone().unwrap_or_else(|| match origin {
         Origin::File(p) => p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
@@ -231,6 +246,7 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
         params,
         solver: file.solver.method,
         camera,
+        colliders,
     })
 }
 
@@ -274,6 +290,8 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         over_relaxation: s.over_relaxation,
         tether_slack: s.tether_slack,
         start: s.start,
+        thickness: s.thickness,
+        friction: s.friction,
     };
     params.validate().map_err(|e| {
         let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };
@@ -325,17 +343,23 @@ fn adjacency_mesh(m: &MeshTable) -> Result<ClothMesh, SceneErrorKind> {
 /// Largest OBJ file read, bytes: a bound on memory for untrusted input.
 pub const MAX_OBJ_BYTES: u64 = 256 << 20;
 
-fn obj_mesh(o: &ObjTable, origin: &Origin) -> Result<ClothMesh, SceneErrorKind> {
-    let (display, text) = match origin {
+/// The text of the OBJ file `path` names: relative to the scene file, a
+/// bundled mesh for a bundled scene. Returns the path as resolved and the text.
+fn obj_text(path: &str, origin: &Origin) -> Result<(String, String), SceneErrorKind> {
+    match origin {
         Origin::Bundled(_) => {
-            let Some(text) = bundled::mesh(&o.path) else {
-                return Err(SceneErrorKind::Obj { path: o.path.clone(), message: "not a bundled mesh".into() });
+            let Some(text) = bundled::mesh(path) else {
+                return Err(SceneErrorKind::Obj { path: path.to_string(), message: "not a bundled mesh".into() });
             };
-            (o.path.clone(), text.to_string())
+            Ok((path.to_string(), text.to_string()))
         }
-        Origin::File(scene_path) => read_obj(&scene_path.parent().unwrap_or(Path::new(".")).join(&o.path))?,
-        Origin::Text => read_obj(&PathBuf::from(&o.path))?,
-    };
+        Origin::File(scene_path) => read_obj(&scene_path.parent().unwrap_or(Path::new(".")).join(path)),
+        Origin::Text => read_obj(&PathBuf::from(path)),
+    }
+}
+
+fn obj_mesh(o: &ObjTable, origin: &Origin) -> Result<ClothMesh, SceneErrorKind> {
+    let (display, text) = obj_text(&o.path, origin)?;
     let obj_error = |message: String| SceneErrorKind::Obj { path: display.clone(), message };
     let (positions, triangles) = parse_obj(&text).map_err(obj_error)?;
     let scale = o.scale.unwrap_or(1.0);

@@ -4,13 +4,15 @@
 //! table, and exactly one of `[grid]` (the seed's rectangle), `[mesh]` (the
 //! seed's particle list and adjacency list) or `[obj]` (a Wavefront OBJ
 //! triangle mesh, path relative to the scene file). An optional `[camera]`
-//! table suggests a view. Every key is documented in the README; unknown keys
+//! table suggests a view, and any number of `[[collider]]` tables give what
+//! the cloth can touch. Every key is documented in the README; unknown keys
 //! are errors, so a typo never passes silently.
 //!
 //! Scenes are named by path (`assets/scenes/seed.toml`) or, for the scenes
 //! bundled into the binary, by name (`seed`): see [`load`] and [`BUNDLED`].
 
 mod bundled;
+pub mod colliders;
 mod file;
 
 use std::path::{Path, PathBuf};
@@ -19,7 +21,7 @@ use std::sync::Arc;
 pub use bundled::{BUNDLED, BundledScene};
 pub use file::{SceneFile, parse_obj};
 
-use crate::sim::{ClothMesh, MeshError, SimError, Simulation, SolverKind, SolverParams};
+use crate::sim::{ClothMesh, Collider, MeshError, SimError, Simulation, SolverKind, SolverParams};
 
 /// A suggested view of the scene for the viewer and `drape render`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,12 +60,16 @@ pub struct Scene {
     pub solver: SolverKind,
     /// The suggested view.
     pub camera: CameraHint,
+    /// What the cloth can touch.
+    pub colliders: Vec<Collider>,
 }
 
 impl Scene {
-    /// A fresh simulation of this scene with its own parameters and solver.
+    /// A fresh simulation of this scene with its own parameters, solver and
+    /// colliders.
     pub fn simulation(&self) -> Result<Simulation, SimError> {
-        Simulation::with_solver(self.mesh.clone(), self.params.clone(), self.solver)
+        Ok(Simulation::with_solver(self.mesh.clone(), self.params.clone(), self.solver)?
+            .with_colliders(self.colliders.clone()))
     }
 }
 

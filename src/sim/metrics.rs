@@ -32,21 +32,28 @@ pub struct Strain {
     pub rms: f32,
 }
 
-/// The strain of `bars` at `positions`. Sums in f64 so that the RMS of a
-/// million bars is exact to f32 precision.
-pub fn strain(positions: &[Vec3], bars: &[Bar]) -> Strain {
-    if bars.is_empty() {
-        return Strain::default();
-    }
+/// The strain of the bars that can move (not both ends in `fixed`; pass
+/// an empty slice to count every bar) at `positions`. Sums in f64 so that
+/// the RMS of a million bars is exact to f32 precision.
+pub fn strain(positions: &[Vec3], bars: &[Bar], fixed: &[bool]) -> Strain {
     let mut max = 0.0f32;
     let mut sum_sq = 0.0f64;
+    let mut count = 0usize;
+    let is_fixed = |i: u32| fixed.get(i as usize).copied().unwrap_or(false);
     for bar in bars {
+        if is_fixed(bar.a) && is_fixed(bar.b) {
+            continue;
+        }
         let len = positions[bar.a as usize].distance(positions[bar.b as usize]);
         let e = (len - bar.rest_length).abs() / bar.rest_length;
         max = max.max(e);
         sum_sq += f64::from(e) * f64::from(e);
+        count += 1;
     }
-    Strain { max, rms: (sum_sq / bars.len() as f64).sqrt() as f32 }
+    if count == 0 {
+        return Strain::default();
+    }
+    Strain { max, rms: (sum_sq / count as f64).sqrt() as f32 }
 }
 
 /// Kinetic energy `Σ ½ m |(x − x_prev)/h|²` over the particles not fixed, joules.
@@ -132,11 +139,11 @@ mod tests {
             Bar { a: 0, b: 1, rest_length: 1.0, kind: BarKind::Structural }, // 10 % long
             Bar { a: 1, b: 2, rest_length: 1.0, kind: BarKind::Structural }, // 20 % short
         ];
-        let s = strain(&positions, &bars);
+        let s = strain(&positions, &bars, &[]);
         assert!((s.max - 0.2).abs() < 1e-6, "{s:?}");
         // sqrt((0.1² + 0.2²)/2) = sqrt(0.025) = 0.158114
         assert!((s.rms - 0.158_114).abs() < 1e-5, "{s:?}");
-        assert_eq!(strain(&positions, &[]), Strain::default());
+        assert_eq!(strain(&positions, &[], &[]), Strain::default());
     }
 
     #[test]

@@ -56,12 +56,17 @@
 //! - [`params`]: h, δ, m, relaxations, gravity and wind, with ranges.
 //! - [`mesh`]: particles, bars, triangles; grids, adjacency lists, triangle meshes.
 //! - [`simulation`]: [`Simulation`], the clock and the public state.
+//! - [`step`]: the substep as named phases (integrate, relax, collide,
+//!   settle) and the [`Solver`] trait each solver implements.
+//! - [`collider`], [`contact`]: colliders, and the collide phase with friction.
 //! - [`reference`](mod@reference): the seed's loops written plainly, the yardstick.
 //! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
 //! - [`tether`]: long-range attachments that bound stretch.
 //! - [`exact`]: exact answers (discrete free fall, pendulum, catenary) for tests and error measures.
 
+pub mod collider;
+pub mod contact;
 pub mod exact;
 pub mod fast;
 pub mod mesh;
@@ -70,11 +75,14 @@ pub mod params;
 pub mod reference;
 pub mod relax;
 pub mod simulation;
+pub mod step;
 pub mod tether;
 pub mod wind;
 
+pub use collider::{Collider, Keyframe, MeshShape, Motion, Pose, Shape};
 pub use mesh::{Bar, BarKind, ClothMesh, Grid, GridPlane, GridShape, MeshError, MeshParts, Pins};
 pub use metrics::{Strain, StrainHistory};
 pub use params::{ParamError, SolverParams, Start};
-pub use simulation::{SimError, Simulation, SolverKind, Substep};
+pub use simulation::{SimError, Simulation, SolverKind};
+pub use step::{Solver, Substep};
 pub use wind::Wind;

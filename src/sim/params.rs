@@ -24,6 +24,10 @@ pub const MAX_FORCE: f32 = 1e9;
 pub const MAX_SUBSTEPS: u32 = 1000;
 /// Largest accepted compliance, m/N.
 pub const MAX_COMPLIANCE: f32 = 1.0;
+/// Largest accepted contact thickness, metres.
+pub const MAX_THICKNESS: f32 = 10.0;
+/// Largest accepted friction coefficient.
+pub const MAX_FRICTION: f32 = 100.0;
 
 /// How the solver spends its work on one step, and the forces it applies.
 ///
@@ -114,6 +118,14 @@ pub struct SolverParams {
     /// How the first step starts: the seed's Euler step (equation 2, default)
     /// or a second-order one.
     pub start: Start,
+    /// r: the distance every particle keeps from every collider surface, in
+    /// metres ([`super::contact`]). Range `0 ..= 10`, default 0.01. Unused
+    /// without colliders.
+    pub thickness: f32,
+    /// μ: Coulomb's friction coefficient between cloth and colliders that
+    /// give none of their own. Dimensionless, range `0 ..= 100`, default 0.3
+    /// (cotton on wood is about 0.3–0.5; 0 is ice).
+    pub friction: f32,
 }
 
 /// The first step of the simulation.
@@ -145,6 +157,8 @@ impl Default for SolverParams {
             over_relaxation: 1.0,
             tether_slack: None,
             start: Start::Euler,
+            thickness: 0.01,
+            friction: 0.3,
         }
     }
 }
@@ -173,6 +187,15 @@ pub(crate) fn check_force(name: &'static str, v: Vec3) -> Result<(), ParamError>
         Ok(())
     } else {
         Err(ParamError::new(name, format!("[{}, {}, {}]", v.x, v.y, v.z), "finite components within ±1e9 N"))
+    }
+}
+
+/// Checks a friction coefficient: 0 ≤ μ ≤ [`MAX_FRICTION`].
+pub(crate) fn check_friction(name: &'static str, mu: f32) -> Result<(), ParamError> {
+    if (0.0..=MAX_FRICTION).contains(&mu) {
+        Ok(())
+    } else {
+        Err(ParamError::new(name, mu, "a coefficient, 0 <= friction <= 100"))
     }
 }
 
@@ -214,6 +237,10 @@ impl SolverParams {
         {
             return Err(ParamError::new("tether_slack", slack, "0 <= tether_slack <= 1"));
         }
+        if !(0.0..=MAX_THICKNESS).contains(&self.thickness) {
+            return Err(ParamError::new("thickness", self.thickness, "metres, 0 <= thickness <= 10"));
+        }
+        check_friction("friction", self.friction)?;
         self.wind.validate()
     }
 
@@ -269,6 +296,9 @@ mod tests {
             (SolverParams { bend_compliance: f32::NAN, ..base.clone() }, "bend_compliance"),
             (SolverParams { over_relaxation: 2.0, ..base.clone() }, "over_relaxation"),
             (SolverParams { tether_slack: Some(-0.5), ..base.clone() }, "tether_slack"),
+            (SolverParams { thickness: -0.01, ..base.clone() }, "thickness"),
+            (SolverParams { friction: f32::NAN, ..base.clone() }, "friction"),
+            (SolverParams { friction: -0.1, ..base.clone() }, "friction"),
         ];
         for (params, name) in cases {
             let err = params.validate().expect_err(name);

@@ -5,11 +5,14 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::fast::FastSolver;
+use super::collider::{Collider, Motion, Pose};
+use super::contact::ContactStep;
+use super::fast;
 use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
 use super::params::{ParamError, SolverParams, Start};
 use super::reference::ReferenceSolver;
+use super::step::{Solver, Substep, run_substep};
 use super::tether::Tethers;
 
 /// Which solver advances the cloth. Both implement the same equations; they
@@ -66,98 +69,6 @@ pub enum SimError {
     },
 }
 
-/// Everything one substep of h/n needs, derived from [`SolverParams`] by
-/// [`Simulation`]; the solvers take it as it is.
-#[derive(Clone, Copy, Debug)]
-pub struct Substep<'a> {
-    /// h/n, seconds.
-    pub dt: f32,
-    /// 1 − δ_n, the share of last substep's motion that is kept.
-    pub keep: f32,
-    /// (h/n)² f / m: what the force adds to a free particle's displacement.
-    pub accel: Vec3,
-    /// For the very first substep: v₀ and the displacement added to h v₀
-    /// (zero for the seed's Euler start, ½ (h/n)² f/m for the second-order one).
-    pub first: Option<(&'a [Vec3], Vec3)>,
-    /// Passes over the bars.
-    pub relaxations: u32,
-    /// Relative strain that ends the passes early (0: off).
-    pub tolerance: f32,
-    /// ω, the over-relaxation of each projection.
-    pub over_relaxation: f32,
-    /// α m / (h/n)² for structural bars (0: rigid), dimensionless.
-    pub stretch_beta: f32,
-    /// α m / (h/n)² for bend bars.
-    pub bend_beta: f32,
-    /// The tether slack when tethers are on.
-    pub tether_slack: Option<f32>,
-}
-
-/// The solver's own state, whichever kind it is.
-#[derive(Clone, Debug)]
-enum Engine {
-    Reference(ReferenceSolver),
-    Fast(FastSolver),
-}
-
-impl Engine {
-    fn new(
-        kind: SolverKind,
-        mesh: &ClothMesh,
-        state: (&[Vec3], &[Vec3]),
-        fixed: &[bool],
-        bars: &[Bar],
-        tethers: Option<Tethers>,
-    ) -> Self {
-        let (positions, previous) = state;
-        match kind {
-            SolverKind::Reference => Engine::Reference(ReferenceSolver::new(positions, previous, fixed, bars, tethers)),
-            SolverKind::Fast => Engine::Fast(FastSolver::new(mesh, positions, previous, fixed, bars, tethers)),
-        }
-    }
-
-    fn step(&mut self, substep: &Substep) -> u32 {
-        match self {
-            Engine::Reference(s) => s.step(substep),
-            Engine::Fast(s) => s.step(substep),
-        }
-    }
-
-    fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        match self {
-            Engine::Reference(s) => {
-                positions.copy_from_slice(&s.positions);
-                previous.copy_from_slice(&s.previous);
-            }
-            Engine::Fast(s) => s.read(positions, previous),
-        }
-    }
-
-    fn first_non_finite(&self) -> Option<usize> {
-        match self {
-            Engine::Reference(s) => s.positions.iter().position(|p| !p.is_finite()),
-            Engine::Fast(s) => s.first_non_finite(),
-        }
-    }
-
-    fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
-        match self {
-            Engine::Reference(s) => {
-                s.positions[index] = position;
-                s.previous[index] = previous;
-            }
-            Engine::Fast(s) => s.set_particle(index, position, previous),
-        }
-    }
-
-    fn describe(&self) -> String {
-        match self {
-            Engine::Reference(_) => "creation order, scalar, one thread".to_string(),
-            Engine::Fast(s) => s.describe(),
-        }
-    }
-}
-
 /// A cloth being simulated: the mesh, the parameters, the solver's state and
 /// the simulated clock.
 ///
@@ -175,20 +86,20 @@ pub struct Simulation {
     mesh: Arc<ClothMesh>,
     params: SolverParams,
     kind: SolverKind,
+    /// Which particles are fixed now (inverse mass 0).
     fixed: Vec<bool>,
-    bars: Vec<Bar>,
-    engine: Engine,
+    /// Each particle's inverse mass relative to m (0: fixed).
+    inverse_mass: Vec<f32>,
+    colliders: Vec<Collider>,
+    /// A collider moved by hand since the last step: (index, from, to).
+    dragged: Vec<(usize, Pose, Pose)>,
+    solver: Box<dyn Solver>,
     positions: Vec<Vec3>,
     previous: Vec<Vec3>,
     steps: u64,
     time: f64,
     diverged: Option<SimError>,
     last_passes: u32,
-}
-
-/// The bars that can move: those not joining two fixed particles.
-fn active_bars(mesh: &ClothMesh, fixed: &[bool]) -> Vec<Bar> {
-    mesh.bars().iter().filter(|b| !(fixed[b.a as usize] && fixed[b.b as usize])).copied().collect()
 }
 
 impl Simulation {
@@ -206,18 +117,20 @@ impl Simulation {
         params.validate()?;
         let mesh = mesh.into();
         let fixed = mesh.fixed().to_vec();
-        let bars = active_bars(&mesh, &fixed);
+        let inverse_mass: Vec<f32> = fixed.iter().map(|&f| if f { 0.0 } else { 1.0 }).collect();
         let positions = mesh.positions().to_vec();
         let previous = positions.clone();
-        let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), &bars, &fixed));
-        let engine = Engine::new(kind, &mesh, (&positions, &previous), &fixed, &bars, tethers);
+        let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), mesh.bars(), &fixed));
+        let solver = build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers);
         Ok(Self {
             mesh,
             params,
             kind,
             fixed,
-            bars,
-            engine,
+            inverse_mass,
+            colliders: Vec::new(),
+            dragged: Vec::new(),
+            solver,
             positions,
             previous,
             steps: 0,
@@ -227,12 +140,19 @@ impl Simulation {
         })
     }
 
+    /// The same simulation with these colliders (see [`Self::set_colliders`]).
+    pub fn with_colliders(mut self, colliders: Vec<Collider>) -> Self {
+        self.colliders = colliders;
+        self
+    }
+
     /// Back to the mesh's initial state and time 0, keeping parameters and solver.
     pub fn reset(&mut self) {
         let fresh = Self::with_solver(self.mesh.clone(), self.params.clone(), self.kind);
         // Parameters were validated when set, so rebuilding cannot fail.
         if let Ok(fresh) = fresh {
-            *self = fresh;
+            let colliders = std::mem::take(&mut self.colliders);
+            *self = fresh.with_colliders(colliders);
         }
     }
 
@@ -250,7 +170,7 @@ impl Simulation {
         let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
         self.params = params;
         if tethers_toggled {
-            self.rebuild_engine();
+            self.refresh_tethers();
         }
         Ok(())
     }
@@ -262,7 +182,7 @@ impl Simulation {
     pub fn set_solver(&mut self, kind: SolverKind) {
         if kind != self.kind {
             self.kind = kind;
-            self.rebuild_engine();
+            self.rebuild_solver();
         }
     }
     /// Steps taken since the start.
@@ -285,13 +205,61 @@ impl Simulation {
     pub fn fixed(&self) -> &[bool] {
         &self.fixed
     }
-    /// The bars the solver relaxes (none joins two fixed particles).
+    /// Each particle's inverse mass relative to m: 1 free, 0 fixed.
+    pub fn inverse_masses(&self) -> &[f32] {
+        &self.inverse_mass
+    }
+    /// Every bar of the mesh (the solvers visit each; one between two fixed
+    /// particles moves nothing).
     pub fn bars(&self) -> &[Bar] {
-        &self.bars
+        self.mesh.bars()
+    }
+    /// How many bars can move now: those with at least one free end.
+    pub fn movable_bar_count(&self) -> usize {
+        self.mesh.bars().iter().filter(|b| !(self.fixed[b.a as usize] && self.fixed[b.b as usize])).count()
     }
     /// Bar projections one step performs: bars × relaxations × substeps.
     pub fn projections_per_step(&self) -> u64 {
-        self.bars.len() as u64 * u64::from(self.params.relaxations) * u64::from(self.params.substeps)
+        self.mesh.bars().len() as u64 * u64::from(self.params.relaxations) * u64::from(self.params.substeps)
+    }
+    /// The colliders.
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+    /// Replaces the colliders; they act from the next step on.
+    pub fn set_colliders(&mut self, colliders: Vec<Collider>) {
+        self.colliders = colliders;
+        self.dragged.clear();
+    }
+    /// Where every collider is now (a collider moved by hand is where it was
+    /// put).
+    pub fn collider_poses(&self) -> Vec<Pose> {
+        (0..self.colliders.len()).map(|k| self.collider_pose(k)).collect()
+    }
+    fn collider_pose(&self, k: usize) -> Pose {
+        match self.dragged.iter().find(|d| d.0 == k) {
+            Some(&(_, _, to)) => to,
+            None => self.colliders[k].pose_at(self.time),
+        }
+    }
+    /// Moves collider `index` by hand to `pose`. Over the next step it
+    /// travels there from where it is (so friction and contact see the
+    /// motion), then stays (its own motion, if any, ends).
+    pub fn move_collider(&mut self, index: usize, pose: Pose) -> Result<(), SimError> {
+        if index >= self.colliders.len() {
+            return Err(SimError::Param(ParamError::new("collider", index, "the index of an existing collider")));
+        }
+        if !(pose.translation.is_finite() && pose.rotation.is_finite()) {
+            return Err(SimError::Param(ParamError::new("collider pose", pose.translation, "finite coordinates")));
+        }
+        match self.dragged.iter_mut().find(|d| d.0 == index) {
+            Some(d) => d.2 = pose,
+            None => {
+                let from = self.collider_pose(index);
+                self.dragged.push((index, from, pose));
+            }
+        }
+        Ok(())
     }
     /// Relaxation passes the last substep made: `relaxations`, or fewer when
     /// the tolerance ended it early.
@@ -300,7 +268,7 @@ impl Simulation {
     }
     /// How the solver in use works, in a few words (layout, SIMD, threads).
     pub fn solver_description(&self) -> String {
-        self.engine.describe()
+        self.solver.describe()
     }
     /// The error that stopped the simulation, if it blew up.
     pub fn diverged(&self) -> Option<&SimError> {
@@ -319,7 +287,7 @@ impl Simulation {
         if let Some(e) = &self.diverged {
             return Err(e.clone());
         }
-        let p = &self.params;
+        let p = self.params.clone();
         let dt = p.substep_dt();
         let beta = |alpha: f32| alpha * p.mass / (dt * dt);
         for _ in 0..n {
@@ -349,22 +317,35 @@ impl Simulation {
                     };
                     (self.mesh.velocities(), extra)
                 });
-                self.last_passes = self.engine.step(&substep);
+                let contact = (!self.colliders.is_empty())
+                    .then(|| contact_step(&self.colliders, &self.dragged, &p, self.time, k));
+                self.last_passes = run_substep(self.solver.as_mut(), &substep, contact.as_ref());
             }
             self.steps += 1;
             self.time += f64::from(p.dt);
-            if let Some(particle) = self.engine.first_non_finite() {
+            self.finish_drags();
+            if let Some(particle) = self.solver.first_non_finite() {
                 let e = SimError::Diverged { step: self.steps, particle };
                 self.diverged = Some(e.clone());
                 return Err(e);
             }
         }
-        self.engine.read(&mut self.positions, &mut self.previous);
+        self.solver.read(&mut self.positions, &mut self.previous);
         Ok(())
     }
 
-    /// Fixes or frees a particle. Bars between two fixed particles drop out of
-    /// the relaxation and come back when one end is freed.
+    /// Colliders moved by hand stay where they were put.
+    fn finish_drags(&mut self) {
+        for (index, _, to) in self.dragged.drain(..) {
+            let c = &mut self.colliders[index];
+            c.pose = to;
+            c.motion = Motion::Fixed;
+        }
+    }
+
+    /// Fixes or frees a particle: a write of its inverse mass (0 or 1), not
+    /// a rebuild. With tethers on, the attachments are recomputed (they
+    /// depend on which particles are fixed).
     ///
     /// A particle being fixed comes to rest (its previous position becomes
     /// its current one), so one freed later starts from rest rather than
@@ -374,11 +355,16 @@ impl Simulation {
         self.check_index(index)?;
         if self.fixed[index] != fixed {
             self.fixed[index] = fixed;
+            let weight = if fixed { 0.0 } else { 1.0 };
+            self.inverse_mass[index] = weight;
+            self.solver.set_inverse_mass(index, weight);
             if fixed {
                 self.previous[index] = self.positions[index];
+                self.solver.set_particle(index, self.positions[index], self.previous[index]);
             }
-            self.bars = active_bars(&self.mesh, &self.fixed);
-            self.rebuild_engine();
+            if self.params.tether_slack.is_some() {
+                self.refresh_tethers();
+            }
         }
         Ok(())
     }
@@ -394,7 +380,7 @@ impl Simulation {
         let previous = self.positions[index];
         self.positions[index] = position;
         self.previous[index] = previous;
-        self.engine.set_particle(index, position, previous);
+        self.solver.set_particle(index, position, previous);
         Ok(())
     }
 
@@ -415,13 +401,15 @@ impl Simulation {
         self.previous.copy_from_slice(previous);
         self.steps = self.steps.max(1);
         self.diverged = None;
-        self.rebuild_engine();
+        for i in 0..n {
+            self.solver.set_particle(i, positions[i], previous[i]);
+        }
         Ok(())
     }
 
     /// Max and RMS relative strain of the relaxed bars.
     pub fn strain(&self) -> Strain {
-        metrics::strain(&self.positions, &self.bars)
+        metrics::strain(&self.positions, self.mesh.bars(), &self.fixed)
     }
     /// Kinetic energy of the free particles, joules, from the velocity of the
     /// last substep, (x − x_prev)/(h/n).
@@ -447,9 +435,55 @@ impl Simulation {
         }
     }
 
-    fn rebuild_engine(&mut self) {
+    fn rebuild_solver(&mut self) {
         let state = (&self.positions[..], &self.previous[..]);
-        let tethers = self.params.tether_slack.map(|_| Tethers::new(self.positions.len(), &self.bars, &self.fixed));
-        self.engine = Engine::new(self.kind, &self.mesh, state, &self.fixed, &self.bars, tethers);
+        let tethers = self.tethers();
+        self.solver = build_solver(self.kind, &self.mesh, state, &self.inverse_mass, tethers);
+    }
+
+    fn tethers(&self) -> Option<Tethers> {
+        self.params.tether_slack.map(|_| Tethers::new(self.positions.len(), self.mesh.bars(), &self.fixed))
+    }
+
+    fn refresh_tethers(&mut self) {
+        let tethers = self.tethers();
+        self.solver.set_tethers(tethers);
+    }
+}
+
+/// The colliders placed for substep `k` of the step that starts at `time`;
+/// a collider moved by hand goes from where it was to where it was put.
+fn contact_step<'a>(
+    colliders: &'a [Collider],
+    dragged: &[(usize, Pose, Pose)],
+    p: &SolverParams,
+    time: f64,
+    k: u32,
+) -> ContactStep<'a> {
+    let n = p.substeps as f32;
+    let (s0, s1) = (k as f32 / n, (k + 1) as f32 / n);
+    let h = f64::from(p.dt);
+    let (t0, t1) = (time + h * f64::from(s0), time + h * f64::from(s1));
+    let placed = colliders.iter().enumerate().map(move |(i, c)| match dragged.iter().find(|d| d.0 == i) {
+        Some(&(_, from, to)) => (c, from.lerp(&to, s0), from.lerp(&to, s1)),
+        None => (c, c.pose_at(t0), c.pose_at(t1)),
+    });
+    ContactStep::with_poses(placed, p.thickness, p.friction)
+}
+
+/// The solver of this kind for this state.
+fn build_solver(
+    kind: SolverKind,
+    mesh: &ClothMesh,
+    state: (&[Vec3], &[Vec3]),
+    inverse_mass: &[f32],
+    tethers: Option<Tethers>,
+) -> Box<dyn Solver> {
+    let (positions, previous) = state;
+    match kind {
+        SolverKind::Reference => {
+            Box::new(ReferenceSolver::new(positions, previous, inverse_mass, mesh.bars(), tethers))
+        }
+        SolverKind::Fast => fast::new(mesh, positions, previous, inverse_mass, mesh.bars(), tethers),
     }
 }

@@ -133,6 +133,9 @@ fn view_section(ui: &mut Ui, model: &PanelModel<'_>) -> Vec<UiCommand> {
         ui.checkbox(&mut view.strain_colours, "strain colours");
         ui.checkbox(&mut view.ground, "ground");
         ui.end_row();
+        let has_colliders = !model.sim.colliders().is_empty();
+        ui.add_enabled(has_colliders, egui::Checkbox::new(&mut view.colliders, "colliders"));
+        ui.end_row();
     });
     let mut percent = view.strain_scale * 100.0;
     let scale = egui::Slider::new(&mut percent, 0.1..=100.0).logarithmic(true).suffix(" %").text("strain scale");
@@ -176,7 +179,7 @@ fn stats_section(ui: &mut Ui, model: &PanelModel<'_>) {
         ("render", optional(stats.render_seconds(), format_duration)),
         ("speed", optional(stats.speed(), |s| format!("{s:.2}× real"))),
         ("particles", model.sim.positions().len().to_string()),
-        ("bars", model.sim.bars().len().to_string()),
+        ("bars", model.sim.movable_bar_count().to_string()),
         ("max strain", format!("{:.2} %", strain.max * 100.0)),
         ("RMS strain", format!("{:.3} %", strain.rms * 100.0)),
     ];

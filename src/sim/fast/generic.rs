@@ -5,21 +5,23 @@
 //! creation order within a colour). Bars of one colour share no particle, so
 //! each projection is independent of the one before it and the CPU overlaps
 //! them, instead of waiting on the previous projection's result as the
-//! creation-order loop does. Positions and the state code sit together in 16
+//! creation-order loop does. Positions and the inverse mass sit together in 16
 //! bytes, one load per bar end.
 
 use glam::Vec3;
 
-use super::kernel::{FIXED, FREE, Point, Shares, excess, integrate, relax_pair, settle, tether};
+use super::kernel::{Point, excess, integrate, relax_pair, settle, tether};
+use crate::sim::contact::ContactStep;
 use crate::sim::mesh::{Bar, BarKind};
-use crate::sim::simulation::Substep;
+use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
 
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(16))]
 struct Particle {
     position: Point<f32>,
-    state: f32,
+    /// Inverse mass relative to m (0: fixed).
+    weight: f32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -51,7 +53,7 @@ impl GenericLayout {
     pub(crate) fn new(
         positions: &[Vec3],
         previous: &[Vec3],
-        fixed: &[bool],
+        inverse_mass: &[f32],
         bars: &[Bar],
         tethers: Option<Tethers>,
     ) -> Self {
@@ -86,10 +88,12 @@ impl GenericLayout {
             colours,
             tethers,
         };
-        for (i, p) in layout.particles.iter_mut().enumerate() {
-            p.state = if fixed[i] { FIXED } else { FREE };
+        for (p, &w) in layout.particles.iter_mut().zip(inverse_mass) {
+            p.weight = w;
         }
-        layout.write_state(positions, previous);
+        for i in 0..positions.len() {
+            layout.set_particle(i, positions[i], previous[i]);
+        }
         layout
     }
 
@@ -98,38 +102,17 @@ impl GenericLayout {
         self.colours
     }
 
-    pub(crate) fn write_state(&mut self, positions: &[Vec3], previous: &[Vec3]) {
-        for i in 0..positions.len() {
-            self.set_particle(i, positions[i], previous[i]);
-        }
-    }
-
-    pub(crate) fn read_state(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        for (i, (p, d)) in self.particles.iter().zip(&self.displacement).enumerate() {
-            positions[i] = Vec3::from_array(p.position);
-            previous[i] = positions[i] - Vec3::from_array(*d);
-        }
-    }
-
-    pub(crate) fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
-        self.particles[index].position = position.to_array();
-        self.displacement[index] = (position - previous).to_array();
-    }
-
     fn set_initial_velocity(&mut self, velocity: &[Vec3], dt: f32, extra: Vec3) {
         for (i, (d, p)) in self.displacement.iter_mut().zip(&self.particles).enumerate() {
-            if p.state == FREE {
-                *d = (velocity[i] * dt + extra).to_array();
+            if p.weight > 0.0 {
+                *d = (velocity[i] * dt + extra * p.weight).to_array();
             }
         }
     }
+}
 
-    pub(crate) fn first_non_finite(&self) -> Option<usize> {
-        self.particles.iter().position(|p| !p.position.iter().all(|c| c.is_finite()))
-    }
-
-    /// One substep; see [`super::grid::GridLayout::step`].
-    pub(crate) fn step(&mut self, s: &Substep) -> u32 {
+impl Solver for GenericLayout {
+    fn integrate(&mut self, s: &Substep) {
         let (keep, accel) = match s.first {
             Some((v0, extra)) => {
                 self.set_initial_velocity(v0, s.dt, extra);
@@ -138,14 +121,17 @@ impl GenericLayout {
             None => (s.keep, s.accel.to_array()),
         };
         for ((p, d), q) in self.particles.iter_mut().zip(&mut self.displacement).zip(&mut self.predicted) {
-            *q = integrate(&mut p.position, d, p.state, keep, accel);
+            *q = integrate(&mut p.position, d, p.weight, keep, accel);
         }
+    }
+
+    fn relax(&mut self, s: &Substep) -> u32 {
         if let (Some(tethers), Some(slack)) = (&self.tethers, s.tether_slack) {
             for i in 0..self.particles.len() {
                 if let Some(anchor) = tethers.anchor[i] {
                     let from = self.particles[anchor as usize].position;
                     let p = &mut self.particles[i];
-                    tether(&mut p.position, from, tethers.length[i] * (1.0 + slack), p.state);
+                    tether(&mut p.position, from, tethers.length[i] * (1.0 + slack), p.weight);
                 }
             }
         }
@@ -153,9 +139,7 @@ impl GenericLayout {
         if compliant {
             self.multipliers.fill(0.0);
         }
-        let shares =
-            [Shares::compliant(s.stretch_beta, s.over_relaxation), Shares::compliant(s.bend_beta, s.over_relaxation)];
-        let sweep = Sweep { shares, betas: [s.stretch_beta, s.bend_beta], tolerance: s.tolerance };
+        let sweep = Sweep { betas: [s.stretch_beta, s.bend_beta], omega: s.over_relaxation, tolerance: s.tolerance };
         let mut sweeps = 0;
         for _ in 0..s.relaxations {
             sweeps += 1;
@@ -168,17 +152,63 @@ impl GenericLayout {
                 break;
             }
         }
-        for ((p, d), q) in self.particles.iter().zip(&mut self.displacement).zip(&self.predicted) {
-            settle(d, p.position, *q, p.state);
-        }
         sweeps
+    }
+
+    /// Particles in scene order; each started the substep at x_pred − d.
+    fn collide(&mut self, contact: &ContactStep) {
+        let all = contact.all();
+        for ((p, d), q) in self.particles.iter_mut().zip(&self.displacement).zip(&self.predicted) {
+            if p.weight > 0.0 {
+                let x0 = Vec3::from_array(*q) - Vec3::from_array(*d);
+                p.position = contact.resolve(&all, x0, Vec3::from_array(p.position)).to_array();
+            }
+        }
+    }
+
+    fn settle(&mut self) {
+        for ((p, d), q) in self.particles.iter().zip(&mut self.displacement).zip(&self.predicted) {
+            settle(d, p.position, *q, p.weight);
+        }
+    }
+
+    fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
+        for (i, (p, d)) in self.particles.iter().zip(&self.displacement).enumerate() {
+            positions[i] = Vec3::from_array(p.position);
+            previous[i] = positions[i] - Vec3::from_array(*d);
+        }
+    }
+
+    fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
+        self.particles[index].position = position.to_array();
+        self.displacement[index] = (position - previous).to_array();
+    }
+
+    fn set_inverse_mass(&mut self, index: usize, weight: f32) {
+        self.particles[index].weight = weight;
+    }
+
+    fn set_tethers(&mut self, tethers: Option<Tethers>) {
+        self.tethers = tethers;
+    }
+
+    fn first_non_finite(&self) -> Option<usize> {
+        self.particles.iter().position(|p| !p.position.iter().all(|c| c.is_finite()))
+    }
+
+    fn describe(&self) -> String {
+        format!("coloured: {} colours, one thread", self.colours())
+    }
+
+    fn boxed_clone(&self) -> Box<dyn Solver> {
+        Box::new(self.clone())
     }
 }
 
 /// What a sweep needs, by bar kind (0 structural, 1 bend).
 struct Sweep {
-    shares: [Shares; 2],
     betas: [f32; 2],
+    omega: f32,
     tolerance: f32,
 }
 
@@ -194,8 +224,17 @@ fn relax_all<const XPBD: bool>(
     for (bar, mu) in bars.iter().zip(multipliers) {
         let kind = usize::from(bar.bend);
         let (mut a, mut b) = (particles[bar.a as usize], particles[bar.b as usize]);
-        let (wa, wb) = (sweep.shares[kind].weights(a.state), sweep.shares[kind].weights(b.state));
-        let v = relax_pair::<f32, XPBD>(&mut a.position, wa, &mut b.position, wb, bar.rest, mu, sweep.betas[kind]);
+        let (wa, wb) = (a.weight, b.weight);
+        let v = relax_pair::<f32, XPBD>(
+            &mut a.position,
+            wa,
+            &mut b.position,
+            wb,
+            bar.rest,
+            mu,
+            sweep.betas[kind],
+            sweep.omega,
+        );
         particles[bar.a as usize] = a;
         particles[bar.b as usize] = b;
         if sweep.tolerance > 0.0 {

@@ -39,18 +39,24 @@
 //! from the thread count, so one thread or many give the same bits; grids of
 //! at least [`PARALLEL_PARTICLES`] sweep their tiles on the rayon pool.
 //!
-//! Columns past the end of the grid are padding, marked absent; every bar
-//! touching them is a no-op (see [`super::kernel`]).
+//! Columns past the end of the grid are padding of inverse mass 0; every bar
+//! touching them is a no-op (see [`super::kernel`]). So is every bar between
+//! two fixed particles; such bars are kept, so that pinning or freeing a
+//! particle is a write of its weight and never changes the layout.
+//!
+//! **Contact.** The collide phase gives every tile the colliders whose box
+//! meets the tile's box of start and end positions, and resolves its
+//! particles one by one with [`ContactStep::resolve`], the function the
+//! reference solver calls, tiles in parallel on large grids.
 
 use glam::Vec3;
 use multiversion::multiversion;
 use rayon::prelude::*;
 
-use super::kernel::{
-    ABSENT, F32x8, FIXED, FREE, LANES, Point, Real, Shares, Weights, excess, integrate, relax_pair, settle, tether,
-};
+use super::kernel::{F32x8, LANES, Point, Real, excess, integrate, relax_pair, settle, tether};
+use crate::sim::contact::ContactStep;
 use crate::sim::mesh::{BarKind, ClothMesh, GridShape};
-use crate::sim::simulation::Substep;
+use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
 
 /// Columns per block the tiling aims at; a tile holds `8 · block` columns.
@@ -154,10 +160,13 @@ struct Tile {
     position: Vec<Slot>,
     displacement: Vec<Slot>,
     predicted: Vec<Slot>,
-    state: Vec<F32x8>,
-    /// The projection weights of `state` for structural and for bend bars,
-    /// kept in step with the state and the shares.
-    weights: [Vec<Weights<F32x8>>; 2],
+    /// Inverse mass relative to m (0: fixed or padding).
+    weight: Vec<F32x8>,
+    /// 1 for a particle of the grid, 0 for padding past its last column:
+    /// a bar to padding does not exist, and must not pull a real particle
+    /// as a weightless (fixed) partner would. Empty when the tile has no
+    /// padding, which is then never looked at.
+    presence: Vec<F32x8>,
     /// μ = βλ of every operation's eight bars (compliant bars only).
     multipliers: Vec<F32x8>,
     /// Each particle's tether anchor position, and its rest path length
@@ -227,6 +236,8 @@ struct Sweep<'a> {
     tolerance: f32,
     /// β of structural and of bend bars.
     betas: [f32; 2],
+    /// ω, over-relaxation.
+    omega: f32,
     /// Whether any bar is compliant (then μ is kept).
     compliant: bool,
 }
@@ -242,10 +253,10 @@ pub(crate) struct GridLayout {
     /// Scene particle index → location.
     locations: Vec<Location>,
     orientation: Orientation,
-    /// The shares the weights were computed with, structural and bend.
-    shares: [Shares; 2],
     /// Tether anchors by scene index, to refresh anchor positions.
     tethers: Option<Tethers>,
+    /// Sweep tiles on the thread pool.
+    parallel: bool,
 }
 
 impl GridLayout {
@@ -255,10 +266,11 @@ impl GridLayout {
         mesh: &ClothMesh,
         positions: &[Vec3],
         previous: &[Vec3],
-        fixed: &[bool],
+        inverse_mass: &[f32],
         tethers: Option<Tethers>,
     ) -> Option<Self> {
-        let orientation = Orientation::choose(mesh.grid()?, fixed)?;
+        let fixed: Vec<bool> = inverse_mass.iter().map(|&w| w == 0.0).collect();
+        let orientation = Orientation::choose(mesh.grid()?, &fixed)?;
         let (columns, rows) = orientation.size();
         // Every bar must belong to a class, each class must be complete, of
         // one kind and of one rest length (up to rounding).
@@ -295,7 +307,7 @@ impl GridLayout {
             position: vec![[F32x8::default(); 3]; slots],
             displacement: vec![[F32x8::default(); 3]; slots],
             predicted: vec![[F32x8::default(); 3]; slots],
-            state: vec![F32x8::splat(ABSENT); slots],
+            weight: vec![F32x8::splat(0.0); slots],
             ..Tile::default()
         };
         let locations = (0..positions.len()).map(|i| orientation.cell(i)).map(|(c, r)| locate(c, r)).collect();
@@ -306,10 +318,10 @@ impl GridLayout {
             row_starts: Vec::with_capacity(rows + 1),
             locations,
             orientation,
-            shares: [Shares::RIGID; 2],
             tethers,
+            parallel: positions.len() >= PARALLEL_PARTICLES,
         };
-        layout.write_state(positions, previous, fixed);
+        layout.write_state(positions, previous, inverse_mass);
 
         let slot = |r: usize, k: usize| (r * block + k) as u32;
         for r in 0..rows {
@@ -337,14 +349,11 @@ impl GridLayout {
                     } else {
                         Op { a: slot(r, k) | bend, b: slot(r + dr, kb as usize), rest }
                     };
-                    // An operation whose particles are fixed (or padding) in
-                    // every lane of every tile could only project bars
-                    // between fixed particles: it does not exist (the top
-                    // row of a cloth pinned along it, for one). Fixing or
-                    // freeing a particle rebuilds the layout.
-                    if layout.moves_anything(op) {
-                        layout.ops.push(op);
-                    }
+                    // Bars between fixed particles stay, as weightless
+                    // no-ops, so a pin is a write of a weight. (Lane 0 of
+                    // tile 0 holds columns 0 to block − 1, all real, so every
+                    // operation touches a particle.)
+                    layout.ops.push(op);
                 }
                 // Bars from this row that cross into the next tile.
                 for c in 0..columns {
@@ -353,12 +362,6 @@ impl GridLayout {
                         let (a, b) = (locate(c, r), locate(cb as usize, r + dr));
                         // Stored with the lower tile first (A bars point left).
                         let (a, b) = if a.tile < b.tile { (a, b) } else { (b, a) };
-                        let free = |l: Location| {
-                            layout.tiles[l.tile as usize].state[l.slot as usize].0[l.lane as usize] == FREE
-                        };
-                        if !free(a) && !free(b) {
-                            continue;
-                        }
                         let kind = kind_index(kind) as u8;
                         layout.tiles[a.tile as usize].seams.push(SeamBar { a, b, rest, kind });
                     }
@@ -369,46 +372,39 @@ impl GridLayout {
         for tile in &mut layout.tiles {
             tile.seam_multipliers = vec![0.0; tile.seams.len()];
         }
+        let mut presence = vec![vec![F32x8::splat(0.0); slots]; tile_count];
+        for loc in &layout.locations {
+            presence[loc.tile as usize][loc.slot as usize].0[loc.lane as usize] = 1.0;
+        }
+        for (tile, presence) in layout.tiles.iter_mut().zip(presence) {
+            if presence.iter().any(|p| p.0.contains(&0.0)) {
+                tile.presence = presence;
+            }
+        }
         Some(layout)
-    }
-
-    /// Whether `op` joins a free particle in some lane of some tile.
-    fn moves_anything(&self, op: Op) -> bool {
-        let (a, b) = op.slots();
-        self.tiles.iter().any(|t| t.state[a].0.iter().chain(&t.state[b].0).any(|&u| u == FREE))
     }
 
     fn cell_mut(&mut self, loc: Location) -> (&mut Slot, &mut Slot, &mut F32x8) {
         let tile = &mut self.tiles[loc.tile as usize];
         let s = loc.slot as usize;
-        (&mut tile.position[s], &mut tile.displacement[s], &mut tile.state[s])
+        (&mut tile.position[s], &mut tile.displacement[s], &mut tile.weight[s])
     }
 
-    /// Loads positions, displacements (x − x_prev) and fixed flags; derives
-    /// the weights and the tether arrays.
-    pub(crate) fn write_state(&mut self, positions: &[Vec3], previous: &[Vec3], fixed: &[bool]) {
+    /// Loads positions, displacements (x − x_prev) and inverse masses; sets
+    /// up the tether arrays.
+    pub(crate) fn write_state(&mut self, positions: &[Vec3], previous: &[Vec3], inverse_mass: &[f32]) {
         for i in 0..positions.len() {
             let loc = self.locations[i];
             let l = loc.lane as usize;
-            let (p, d, u) = self.cell_mut(loc);
+            let (p, d, w) = self.cell_mut(loc);
             let dv = positions[i] - previous[i];
             for k in 0..3 {
                 p[k].0[l] = positions[i][k];
                 d[k].0[l] = dv[k];
             }
-            u.0[l] = if fixed[i] { FIXED } else { FREE };
+            w.0[l] = inverse_mass[i];
         }
-        self.compute_weights();
         self.refresh_tethers();
-    }
-
-    fn compute_weights(&mut self) {
-        let shares = self.shares;
-        for tile in &mut self.tiles {
-            for (weights, shares) in tile.weights.iter_mut().zip(shares) {
-                *weights = tile.state.iter().map(|&u| shares.weights(u)).collect();
-            }
-        }
     }
 
     /// Sets up the lane arrays of tether anchor positions and rest path
@@ -446,60 +442,23 @@ impl GridLayout {
         }
     }
 
-    /// Positions and previous positions (x − d) in scene order.
-    pub(crate) fn read_state(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        for (i, loc) in self.locations.iter().enumerate() {
-            let tile = &self.tiles[loc.tile as usize];
-            let (s, l) = (loc.slot as usize, loc.lane as usize);
-            let (p, d) = (&tile.position[s], &tile.displacement[s]);
-            positions[i] = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
-            previous[i] = positions[i] - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]);
-        }
-    }
-
-    /// Sets one particle's position and previous position.
-    pub(crate) fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
-        let loc = self.locations[index];
-        let l = loc.lane as usize;
-        let (p, d, u) = self.cell_mut(loc);
-        for k in 0..3 {
-            p[k].0[l] = position[k];
-            d[k].0[l] = position[k] - previous[k];
-        }
-        if u.0[l] == FIXED {
-            // A moved fixed particle may be an anchor: its tethered particles
-            // follow it (no reallocation, so a drag costs one pass per frame).
-            self.copy_anchor_positions(Some(index as u32));
-        }
-    }
-
-    /// Sets every free particle's displacement to `dt · v₀ + extra` (equation 2).
+    /// Sets every free particle's displacement to `dt · v₀ + w · extra` (equation 2).
     fn set_initial_velocity(&mut self, velocity: &[Vec3], dt: f32, extra: Vec3) {
         for (i, &v) in velocity.iter().enumerate() {
             let loc = self.locations[i];
             let l = loc.lane as usize;
-            let (_, d, u) = self.cell_mut(loc);
-            if u.0[l] == FREE {
+            let (_, d, w) = self.cell_mut(loc);
+            let w = w.0[l];
+            if w > 0.0 {
                 for k in 0..3 {
-                    d[k].0[l] = v[k] * dt + extra[k];
+                    d[k].0[l] = v[k] * dt + extra[k] * w;
                 }
             }
         }
     }
 
-    /// The first scene particle with a non-finite coordinate, if any.
-    pub(crate) fn first_non_finite(&self) -> Option<usize> {
-        if self.tiles.iter().all(|t| all_finite(&t.position)) {
-            return None;
-        }
-        self.locations.iter().position(|loc| {
-            let p = &self.tiles[loc.tile as usize].position[loc.slot as usize];
-            !p.iter().all(|c| c.0[loc.lane as usize].is_finite())
-        })
-    }
-
     /// A few words on the layout.
-    pub(crate) fn describe(&self) -> String {
+    fn layout_words(&self) -> String {
         let o = &self.orientation;
         let (columns, rows) = o.size();
         let sweep = match (o.transposed, o.flipped) {
@@ -516,11 +475,13 @@ impl GridLayout {
         )
     }
 
-    /// One substep (see [`Substep`]): integrate, tether, then up to
-    /// `relaxations` sweeps; when `tolerance > 0`, stops after a sweep in which
-    /// every movable bar was within `tolerance` (relative) before its
-    /// projection. Returns the sweeps done.
-    pub(crate) fn step(&mut self, s: &Substep, parallel: bool) -> u32 {
+    fn parallel(&self) -> bool {
+        self.parallel && rayon::current_num_threads() > 1
+    }
+}
+
+impl Solver for GridLayout {
+    fn integrate(&mut self, s: &Substep) {
         let (keep, accel) = match s.first {
             Some((v0, extra)) => {
                 self.set_initial_velocity(v0, s.dt, extra);
@@ -528,20 +489,24 @@ impl GridLayout {
             }
             None => (s.keep, s.accel.to_array()),
         };
-        let shares =
-            [Shares::compliant(s.stretch_beta, s.over_relaxation), Shares::compliant(s.bend_beta, s.over_relaxation)];
-        if shares != self.shares {
-            self.shares = shares;
-            self.compute_weights();
-        }
-        let reach = s.tether_slack.filter(|_| self.tethers.is_some()).map(|slack| 1.0 + slack);
+        let parallel = self.parallel();
         for_each_tile(&mut self.tiles, parallel, |tile| {
             integrate_tile(tile, keep, accel);
-            if let Some(scale) = reach {
-                tether_tile(tile, scale);
-            }
             f32::NEG_INFINITY
         });
+    }
+
+    /// Tethers, then up to `relaxations` sweeps; when `tolerance > 0`, stops
+    /// after a sweep in which every movable bar was within `tolerance`
+    /// (relative) before its projection. Returns the sweeps done.
+    fn relax(&mut self, s: &Substep) -> u32 {
+        let parallel = self.parallel();
+        if let Some(scale) = s.tether_slack.filter(|_| self.tethers.is_some()).map(|slack| 1.0 + slack) {
+            for_each_tile(&mut self.tiles, parallel, |tile| {
+                tether_tile(tile, scale);
+                f32::NEG_INFINITY
+            });
+        }
         let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
         if compliant {
             for tile in &mut self.tiles {
@@ -550,7 +515,13 @@ impl GridLayout {
                 tile.seam_multipliers.fill(0.0);
             }
         }
-        let sweep = Sweep { ops: &self.ops, tolerance: s.tolerance, betas: [s.stretch_beta, s.bend_beta], compliant };
+        let sweep = Sweep {
+            ops: &self.ops,
+            tolerance: s.tolerance,
+            betas: [s.stretch_beta, s.bend_beta],
+            omega: s.over_relaxation,
+            compliant,
+        };
         let mut sweeps = 0;
         if s.tolerance <= 0.0 && self.tiles.len() == 1 {
             // One tile and a fixed number of sweeps: overlap them.
@@ -564,11 +535,120 @@ impl GridLayout {
                 break;
             }
         }
+        sweeps
+    }
+
+    /// Tile by tile: the colliders near the tile's box of start (x_pred − d)
+    /// and end positions, then each particle of non-zero weight resolved by
+    /// [`ContactStep::resolve`].
+    fn collide(&mut self, contact: &ContactStep) {
+        let parallel = self.parallel();
+        for_each_tile(&mut self.tiles, parallel, |tile| {
+            collide_tile(tile, contact);
+            f32::NEG_INFINITY
+        });
+    }
+
+    fn settle(&mut self) {
+        let parallel = self.parallel();
         for_each_tile(&mut self.tiles, parallel, |tile| {
             settle_tile(tile);
             f32::NEG_INFINITY
         });
-        sweeps
+    }
+
+    /// Positions and previous positions (x − d) in scene order.
+    fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
+        for (i, loc) in self.locations.iter().enumerate() {
+            let tile = &self.tiles[loc.tile as usize];
+            let (s, l) = (loc.slot as usize, loc.lane as usize);
+            let (p, d) = (&tile.position[s], &tile.displacement[s]);
+            positions[i] = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+            previous[i] = positions[i] - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]);
+        }
+    }
+
+    fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
+        let loc = self.locations[index];
+        let l = loc.lane as usize;
+        let (p, d, w) = self.cell_mut(loc);
+        for k in 0..3 {
+            p[k].0[l] = position[k];
+            d[k].0[l] = position[k] - previous[k];
+        }
+        if w.0[l] == 0.0 {
+            // A moved fixed particle may be an anchor: its tethered particles
+            // follow it (no reallocation, so a drag costs one pass per frame).
+            self.copy_anchor_positions(Some(index as u32));
+        }
+    }
+
+    fn set_inverse_mass(&mut self, index: usize, weight: f32) {
+        let loc = self.locations[index];
+        self.tiles[loc.tile as usize].weight[loc.slot as usize].0[loc.lane as usize] = weight;
+    }
+
+    fn set_tethers(&mut self, tethers: Option<Tethers>) {
+        self.tethers = tethers;
+        self.refresh_tethers();
+    }
+
+    fn first_non_finite(&self) -> Option<usize> {
+        if self.tiles.iter().all(|t| all_finite(&t.position)) {
+            return None;
+        }
+        self.locations.iter().position(|loc| {
+            let p = &self.tiles[loc.tile as usize].position[loc.slot as usize];
+            !p.iter().all(|c| c.0[loc.lane as usize].is_finite())
+        })
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "lanes: {}, {}{}",
+            self.layout_words(),
+            super::simd_name(),
+            if self.parallel { ", threaded" } else { "" }
+        )
+    }
+
+    fn boxed_clone(&self) -> Box<dyn Solver> {
+        Box::new(self.clone())
+    }
+}
+
+/// The collide phase on one tile.
+fn collide_tile(tile: &mut Tile, contact: &ContactStep) {
+    let Tile { position, displacement, predicted, weight, .. } = tile;
+    let lane = |p: &Slot, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+    // The tile's box of start and end positions of moving particles.
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (((x, d), q), w) in position.iter().zip(displacement.iter()).zip(predicted.iter()).zip(weight.iter()) {
+        for l in 0..LANES {
+            if w.0[l] > 0.0 {
+                let (x, x0) = (lane(x, l), lane(q, l) - lane(d, l));
+                lo = lo.min(x).min(x0);
+                hi = hi.max(x).max(x0);
+            }
+        }
+    }
+    if lo.x > hi.x {
+        return;
+    }
+    let near = contact.near(lo, hi);
+    if near.is_empty() {
+        return;
+    }
+    for (((x, d), q), w) in position.iter_mut().zip(displacement.iter()).zip(predicted.iter()).zip(weight.iter()) {
+        for l in 0..LANES {
+            if w.0[l] > 0.0 {
+                let x0 = lane(q, l) - lane(d, l);
+                let out = contact.resolve(&near, x0, lane(x, l));
+                for k in 0..3 {
+                    x[k].0[l] = out[k];
+                }
+            }
+        }
     }
 }
 
@@ -601,18 +681,18 @@ fn sweep_tiles(all: &mut [Tile], sweep: &Sweep, parallel: bool) -> f32 {
 /// Projects the seam bars between tile `a` and the next, `b`, in order.
 fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
     let mut worst = f32::NEG_INFINITY;
-    let lane = |w: &Weights<F32x8>, l: usize| Weights { own: w.own.0[l], partner: w.partner.0[l] };
-    let Tile { position, weights, seams, seam_multipliers, .. } = a;
+    let Tile { position, weight, seams, seam_multipliers, .. } = a;
     for (seam, mu) in seams.iter().zip(seam_multipliers) {
         let (sa, la, sb, lb) = (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
         let kind = seam.kind as usize;
         let mut pa = position[sa].map(|c| c.0[la]);
         let mut pb = b.position[sb].map(|c| c.0[lb]);
-        let (wa, wb) = (lane(&weights[kind][sa], la), lane(&b.weights[kind][sb], lb));
+        let (wa, wb) = (weight[sa].0[la], b.weight[sb].0[lb]);
+        let (beta, omega) = (sweep.betas[kind], sweep.omega);
         let v = if sweep.compliant {
-            relax_pair::<f32, true>(&mut pa, wa, &mut pb, wb, seam.rest, mu, sweep.betas[kind])
+            relax_pair::<f32, true>(&mut pa, wa, &mut pb, wb, seam.rest, mu, beta, omega)
         } else {
-            relax_pair::<f32, false>(&mut pa, wa, &mut pb, wb, seam.rest, mu, 0.0)
+            relax_pair::<f32, false>(&mut pa, wa, &mut pb, wb, seam.rest, mu, 0.0, omega)
         };
         for k in 0..3 {
             position[sa][k].0[la] = pa[k];
@@ -648,29 +728,29 @@ fn all_finite(slots: &[Slot]) -> bool {
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3]) {
     let (keep, accel) = (F32x8::splat(keep), accel.map(F32x8::splat));
-    let Tile { position, displacement, predicted, state, .. } = tile;
-    for (((x, d), q), u) in position.iter_mut().zip(displacement).zip(predicted).zip(state.iter()) {
-        *q = integrate(x, d, *u, keep, accel);
+    let Tile { position, displacement, predicted, weight, .. } = tile;
+    for (((x, d), q), w) in position.iter_mut().zip(displacement).zip(predicted).zip(weight.iter()) {
+        *q = integrate(x, d, *w, keep, accel);
     }
 }
 
 /// Pulls tethered particles back within `scale` × their rest path length.
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn tether_tile(tile: &mut Tile, scale: f32) {
-    let Tile { position, state, tether_anchor, tether_length, .. } = tile;
+    let Tile { position, weight, tether_anchor, tether_length, .. } = tile;
     let scale = F32x8::splat(scale);
-    for (((x, u), anchor), length) in
-        position.iter_mut().zip(state.iter()).zip(tether_anchor.iter()).zip(tether_length.iter())
+    for (((x, w), anchor), length) in
+        position.iter_mut().zip(weight.iter()).zip(tether_anchor.iter()).zip(tether_length.iter())
     {
-        tether(x, *anchor, *length * scale, *u);
+        tether(x, *anchor, *length * scale, *w);
     }
 }
 
 #[multiversion(targets("x86_64+avx2+fma"))]
 fn settle_tile(tile: &mut Tile) {
-    let Tile { position, displacement, predicted, state, .. } = tile;
-    for (((x, d), q), u) in position.iter().zip(displacement).zip(predicted.iter()).zip(state.iter()) {
-        settle(d, *x, *q, *u);
+    let Tile { position, displacement, predicted, weight, .. } = tile;
+    for (((x, d), q), w) in position.iter().zip(displacement).zip(predicted.iter()).zip(weight.iter()) {
+        settle(d, *x, *q, *w);
     }
 }
 
@@ -678,16 +758,21 @@ fn settle_tile(tile: &mut Tile) {
 /// excess over tolerance among movable bars (−∞ when not asked for).
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
 fn sweep_tile(tile: &mut Tile, sweep: &Sweep) -> f32 {
-    if sweep.compliant { sweep_ops::<true>(tile, sweep) } else { sweep_ops::<false>(tile, sweep) }
+    match (sweep.compliant, tile.presence.is_empty()) {
+        (true, true) => sweep_ops::<true, false>(tile, sweep),
+        (true, false) => sweep_ops::<true, true>(tile, sweep),
+        (false, true) => sweep_ops::<false, false>(tile, sweep),
+        (false, false) => sweep_ops::<false, true>(tile, sweep),
+    }
 }
 
 #[inline(always)]
-fn sweep_ops<const XPBD: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
+fn sweep_ops<const XPBD: bool, const PADDED: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
     let track = sweep.tolerance > 0.0;
     let mut worst = F32x8::splat(f32::NEG_INFINITY);
-    let Tile { position, weights, multipliers, .. } = tile;
+    let Tile { position, weight, presence, multipliers, .. } = tile;
     for (j, &op) in sweep.ops.iter().enumerate() {
-        let (violation, wa, wb) = relax_op::<XPBD>(position, weights, multipliers, j, op, sweep.betas);
+        let (violation, wa, wb) = relax_op::<XPBD, PADDED>(position, weight, presence, multipliers, j, op, sweep);
         if track {
             worst = worst.max(excess(violation, wa, wb, F32x8::splat(op.rest * sweep.tolerance)));
         }
@@ -711,18 +796,24 @@ fn sweep_ops<const XPBD: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
 /// the last.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
 fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
-    if sweep.compliant {
-        sweep_pipelined::<true>(tile, sweep, row_starts, sweeps)
-    } else {
-        sweep_pipelined::<false>(tile, sweep, row_starts, sweeps)
+    match (sweep.compliant, tile.presence.is_empty()) {
+        (true, true) => sweep_pipelined::<true, false>(tile, sweep, row_starts, sweeps),
+        (true, false) => sweep_pipelined::<true, true>(tile, sweep, row_starts, sweeps),
+        (false, true) => sweep_pipelined::<false, false>(tile, sweep, row_starts, sweeps),
+        (false, false) => sweep_pipelined::<false, true>(tile, sweep, row_starts, sweeps),
     }
 }
 
 #[inline(always)]
-fn sweep_pipelined<const XPBD: bool>(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
+fn sweep_pipelined<const XPBD: bool, const PADDED: bool>(
+    tile: &mut Tile,
+    sweep: &Sweep,
+    row_starts: &[u32],
+    sweeps: u32,
+) {
     const LAG: usize = 3;
     let rows = row_starts.len() - 1;
-    let Tile { position, weights, multipliers, .. } = tile;
+    let Tile { position, weight, presence, multipliers, .. } = tile;
     let mut done = 0;
     while done < sweeps {
         let depth = (sweeps - done).min(PIPELINE_DEPTH as u32) as usize;
@@ -740,7 +831,7 @@ fn sweep_pipelined<const XPBD: bool>(tile: &mut Tile, sweep: &Sweep, row_starts:
                 for &(start, end) in &groups[..depth] {
                     if start + j < end {
                         let op = sweep.ops[start + j];
-                        relax_op::<XPBD>(position, weights, multipliers, start + j, op, sweep.betas);
+                        relax_op::<XPBD, PADDED>(position, weight, presence, multipliers, start + j, op, sweep);
                     }
                 }
             }
@@ -755,35 +846,43 @@ const PIPELINE_DEPTH: usize = 4;
 /// Projects the eight bars of operation `j`. Returns the violations and the
 /// weights used (for the tolerance test).
 #[inline(always)]
-fn relax_op<const XPBD: bool>(
+#[allow(clippy::too_many_arguments)]
+fn relax_op<const XPBD: bool, const PADDED: bool>(
     position: &mut [Slot],
-    weights: &[Vec<Weights<F32x8>>; 2],
+    weight: &[F32x8],
+    presence: &[F32x8],
     multipliers: &mut [F32x8],
     j: usize,
     op: Op,
-    betas: [f32; 2],
-) -> (F32x8, Weights<F32x8>, Weights<F32x8>) {
+    sweep: &Sweep,
+) -> (F32x8, F32x8, F32x8) {
     let (ia, ib) = op.slots();
-    let (kind, beta) = (op.kind(), betas[op.kind()]);
-    let weights = &weights[kind];
+    let beta = sweep.betas[op.kind()];
     let mut dummy = F32x8::splat(0.0);
     let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
-    let (mut a, wa) = (position[ia], weights[ia]);
+    let (mut a, mut wa) = (position[ia], weight[ia]);
     if !op.rotated() {
-        let (mut b, wb) = (position[ib], weights[ib]);
-        let v = relax_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, op.rest, mu, beta);
+        let (mut b, mut wb) = (position[ib], weight[ib]);
+        if PADDED {
+            // A bar to padding does not exist: neither end moves.
+            (wa, wb) = (wa * presence[ib], wb * presence[ia]);
+        }
+        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, op.rest, mu, beta, sweep.omega);
         position[ib] = b;
         position[ia] = a;
         (v, wa, wb)
     } else {
         // Lane l meets lane l + 1 of the far slot (the next block); lane 7's
-        // partner is in the next tile (a seam bar), so its weights are zeroed
-        // and it does not move.
+        // partner is in the next tile (a seam bar, projected on its own), so
+        // both ends' weights are zeroed there and neither moves.
         let mut b = position[ib].map(F32x8::rotate_down);
-        let mut wb = Weights { own: weights[ib].own.rotate_down(), partner: weights[ib].partner.rotate_down() };
-        wb.own.0[LANES - 1] = 0.0;
-        wb.partner.0[LANES - 1] = 0.0;
-        let v = relax_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, op.rest, mu, beta);
+        let mut wb = weight[ib].rotate_down();
+        if PADDED {
+            (wa, wb) = (wa * presence[ib].rotate_down(), wb * presence[ia]);
+        }
+        wa.0[LANES - 1] = 0.0;
+        wb.0[LANES - 1] = 0.0;
+        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, op.rest, mu, beta, sweep.omega);
         position[ib] = b.map(F32x8::rotate_up);
         position[ia] = a;
         (v, wa, wb)
@@ -793,22 +892,22 @@ fn relax_op<const XPBD: bool>(
 /// Projects lane l of `a` against lane l of `b` for every lane: the scalar
 /// kernel in a loop that the compiler vectorises lane for lane.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn relax_lanes<const XPBD: bool>(
     a: &mut Slot,
-    wa: &Weights<F32x8>,
+    wa: F32x8,
     b: &mut Slot,
-    wb: &Weights<F32x8>,
+    wb: F32x8,
     rest: f32,
     mu: &mut F32x8,
     beta: f32,
+    omega: f32,
 ) -> F32x8 {
     let mut violation = F32x8::default();
     for l in 0..LANES {
         let mut pa = [a[0].0[l], a[1].0[l], a[2].0[l]];
         let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
-        let wal = Weights { own: wa.own.0[l], partner: wa.partner.0[l] };
-        let wbl = Weights { own: wb.own.0[l], partner: wb.partner.0[l] };
-        violation.0[l] = relax_pair::<f32, XPBD>(&mut pa, wal, &mut pb, wbl, rest, &mut mu.0[l], beta);
+        violation.0[l] = relax_pair::<f32, XPBD>(&mut pa, wa.0[l], &mut pb, wb.0[l], rest, &mut mu.0[l], beta, omega);
         for k in 0..3 {
             a[k].0[l] = pa[k];
             b[k].0[l] = pb[k];
@@ -855,6 +954,15 @@ mod tests {
         }
     }
 
+    fn weights(mesh: &ClothMesh) -> Vec<f32> {
+        mesh.fixed().iter().map(|&f| if f { 0.0 } else { 1.0 }).collect()
+    }
+
+    /// Integrate, relax and settle: a substep without contact.
+    fn step(layout: &mut GridLayout, s: &Substep) {
+        crate::sim::step::run_substep(layout, s, None);
+    }
+
     /// A plain substep: no force, no damping, rigid bars, `relaxations` passes.
     fn substep(relaxations: u32) -> Substep<'static> {
         Substep {
@@ -895,25 +1003,16 @@ mod tests {
     }
 
     #[test]
-    fn every_movable_bar_is_projected_once_per_sweep() {
+    fn every_bar_is_projected_once_per_sweep() {
         for (grid, what) in shapes() {
             let mesh = grid.build().unwrap();
-            let fixed = mesh.fixed().to_vec();
-            let layout = GridLayout::new(&mesh, mesh.positions(), mesh.positions(), &fixed, None).expect(what);
-            // Not one bar between two fixed particles is visited: in these
-            // shapes the pins fill whole rows or stand apart, so every
-            // operation or seam bar holding one is left out whole. (Pins on
-            // part of a row leave zero-weight lanes in an operation that
-            // also moves free particles, which cost nothing extra.)
+            let layout = GridLayout::new(&mesh, mesh.positions(), mesh.positions(), &weights(&mesh), None).expect(what);
+            // Bars between two fixed particles are visited too (as no-ops),
+            // so that freeing a particle needs no new operation.
             let mut seen: Vec<(u32, u32)> =
                 layout.projection_order().into_iter().map(|(a, b)| (a.min(b), a.max(b))).collect();
             seen.sort_unstable();
-            let mut expected: Vec<(u32, u32)> = mesh
-                .bars()
-                .iter()
-                .filter(|b| !(fixed[b.a as usize] && fixed[b.b as usize]))
-                .map(|b| (b.a.min(b.b), b.a.max(b.b)))
-                .collect();
+            let mut expected: Vec<(u32, u32)> = mesh.bars().iter().map(|b| (b.a.min(b.b), b.a.max(b.b))).collect();
             expected.sort_unstable();
             assert_eq!(seen, expected, "{what}");
         }
@@ -933,7 +1032,7 @@ mod tests {
             let start = jittered(mesh.positions(), 0.02);
             let start: Vec<Vec3> =
                 start.iter().zip(mesh.positions()).zip(&fixed).map(|((&j, &p), &f)| if f { p } else { j }).collect();
-            let mut layout = GridLayout::new(&mesh, &start, &start, &fixed, None).expect(what);
+            let mut layout = GridLayout::new(&mesh, &start, &start, &weights(&mesh), None).expect(what);
             let rest: std::collections::HashMap<(u32, u32), f32> =
                 mesh.bars().iter().map(|b| ((b.a.min(b.b), b.a.max(b.b)), b.rest_length)).collect();
             let bars = layout
@@ -946,11 +1045,11 @@ mod tests {
                     kind: crate::sim::BarKind::Structural,
                 })
                 .collect::<Vec<_>>();
-            let mut reference = ReferenceSolver::new(&start, &start, &fixed, &bars, None);
+            let mut reference = ReferenceSolver::new(&start, &start, &weights(&mesh), &bars, None);
             reference.relax_once();
-            layout.step(&substep(1), false);
+            step(&mut layout, &substep(1));
             let (mut got, mut previous) = (start.clone(), start.clone());
-            layout.read_state(&mut got, &mut previous);
+            layout.read(&mut got, &mut previous);
             let worst = got.iter().zip(&reference.positions).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
             assert!(worst < 2e-6, "{what}: lanes and reference differ by {worst} m after one sweep");
             let moved = got.iter().zip(&start).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
@@ -961,10 +1060,9 @@ mod tests {
     #[test]
     fn overlapped_sweeps_are_bit_identical_to_sequential_ones() {
         let mesh = Grid { columns: 20, rows: 30, spacing: 0.1, ..Grid::default() }.build().unwrap();
-        let fixed = mesh.fixed().to_vec();
         let start = jittered(mesh.positions(), 0.02);
         for compliance in [0.0, 1e-3] {
-            let mut overlapped = GridLayout::new(&mesh, &start, &start, &fixed, None).unwrap();
+            let mut overlapped = GridLayout::new(&mesh, &start, &start, &weights(&mesh), None).unwrap();
             let mut sequential = overlapped.clone();
             // 7 sweeps: one group of 4 in flight, then one of 3.
             let s = Substep {
@@ -975,10 +1073,10 @@ mod tests {
                 over_relaxation: 1.3,
                 ..substep(7)
             };
-            overlapped.step(&s, false);
+            step(&mut overlapped, &s);
             // The same substep with a tolerance too small to ever stop early
             // takes the one-sweep-at-a-time path.
-            sequential.step(&Substep { tolerance: 1e-30, ..s }, false);
+            step(&mut sequential, &Substep { tolerance: 1e-30, ..s });
             assert_eq!(bits(&overlapped), bits(&sequential), "compliance {compliance}");
         }
     }
@@ -986,7 +1084,7 @@ mod tests {
     fn bits(l: &GridLayout) -> Vec<u32> {
         let n = l.locations.len();
         let (mut p, mut q) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-        l.read_state(&mut p, &mut q);
+        l.read(&mut p, &mut q);
         p.iter().chain(&q).flat_map(|v| v.to_array().map(f32::to_bits)).collect::<Vec<_>>()
     }
 

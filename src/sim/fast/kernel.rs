@@ -3,28 +3,22 @@
 //! lanes [`F32x8`] (the lane layout), so every path computes bit-identical
 //! values for the same inputs.
 //!
-//! Every particle carries a state code `u`: 0 absent (padding of the lane
-//! layout), 1 fixed, 2 free. With equal masses the share of a correction a
-//! bar end takes is
+//! Every particle carries its inverse mass `w` relative to the scene's m
+//! (1 free, 0 fixed; lane padding has 0 too). A projection moves the ends
+//! of a bar by
 //!
 //! ```text
-//! s_a = [u_a = 2] · G(u_b),   G(0) = 0,  G(1) = c₁,  G(2) = c₂
-//! G(u) = u · (A + B·u),       B = (c₂ − 2c₁)/2,  A = c₁ − B
+//! c = ω (C + μ) / (ℓ (w_a + w_b + β)),   x_a ← x_a + w_a c d,   x_b ← x_b − w_b c d
 //! ```
 //!
-//! with c₁ = 1 (partner fixed: the free end moves the whole way) and
-//! c₂ = ½ (partner free: each moves half), and `[u_a = 2] = max(u_a − 1, 0)`.
-//! A bar to an absent or fixed particle is thus handled without a branch and
-//! the lane loops compile to straight SIMD code.
+//! with d = x_b − x_a, ℓ = |d|, C = ℓ − L (μ = βλ and β only for compliant
+//! bars). A bar whose ends both weigh 0 has its denominator replaced by 1,
+//! so it moves nothing without a branch, and the lane loops compile to
+//! straight SIMD code. For the seed's equal masses the factor is
+//! `C/(2ℓ)` or `C/ℓ`, exactly what the share form gave before (scaling by a
+//! power of two is exact).
 
 use std::ops::{Add, Div, Mul, Sub};
-
-/// State code of a particle that does not exist (lane padding).
-pub(crate) const ABSENT: f32 = 0.0;
-/// State code of a fixed particle.
-pub(crate) const FIXED: f32 = 1.0;
-/// State code of a free particle.
-pub(crate) const FREE: f32 = 2.0;
 
 /// Lengths below this are treated as this when dividing: a bar of zero length
 /// then gets a finite factor times a zero direction, so no NaN appears.
@@ -42,8 +36,9 @@ pub(crate) trait Real:
     /// `if self > other { self } else { other }` (same rule for both types).
     fn max(self, other: Self) -> Self;
     fn abs(self) -> Self;
-    /// `if u == FREE { then } else { otherwise }`, lane by lane.
-    fn if_free(u: Self, then: Self, otherwise: Self) -> Self;
+    /// `if w > 0 { then } else { otherwise }`, lane by lane: does a particle
+    /// of inverse mass w move.
+    fn if_moving(w: Self, then: Self, otherwise: Self) -> Self;
     /// `if a > b { then } else { otherwise }`, lane by lane.
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
 }
@@ -66,8 +61,8 @@ impl Real for f32 {
         f32::abs(self)
     }
     #[inline(always)]
-    fn if_free(u: Self, then: Self, otherwise: Self) -> Self {
-        if u == FREE { then } else { otherwise }
+    fn if_moving(w: Self, then: Self, otherwise: Self) -> Self {
+        if w > 0.0 { then } else { otherwise }
     }
     #[inline(always)]
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
@@ -115,8 +110,8 @@ impl Real for F32x8 {
         F32x8(self.0.map(f32::abs))
     }
     #[inline(always)]
-    fn if_free(u: Self, then: Self, otherwise: Self) -> Self {
-        F32x8(std::array::from_fn(|l| Real::if_free(u.0[l], then.0[l], otherwise.0[l])))
+    fn if_moving(w: Self, then: Self, otherwise: Self) -> Self {
+        F32x8(std::array::from_fn(|l| Real::if_moving(w.0[l], then.0[l], otherwise.0[l])))
     }
     #[inline(always)]
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
@@ -145,79 +140,43 @@ impl F32x8 {
 /// A point: x, y, z.
 pub(crate) type Point<T> = [T; 3];
 
-/// The constants of `G(u)` above.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Shares {
-    a: f32,
-    b: f32,
-}
-
-impl Shares {
-    /// Hard bars of equal masses: c₁ = 1, c₂ = ½.
-    pub(crate) const RIGID: Shares = Shares::new(1.0, 0.5);
-
-    /// `G` through (1, c₁) and (2, c₂).
-    pub(crate) const fn new(c1: f32, c2: f32) -> Self {
-        let b = (c2 - 2.0 * c1) / 2.0;
-        Shares { a: c1 - b, b }
-    }
-
-    /// The shares of a bar with compliance β (α m/h²) and over-relaxation ω:
-    /// c_k = ω / (k + β) for k free ends.
-    pub(crate) fn compliant(beta: f32, omega: f32) -> Self {
-        Shares::new(omega / (1.0 + beta), omega / (2.0 + beta))
-    }
-
-    /// The weights of a particle with state code `u`.
-    #[inline(always)]
-    pub(crate) fn weights<T: Real>(self, u: T) -> Weights<T> {
-        Weights { own: (u - T::splat(1.0)).max(T::splat(0.0)), partner: u * (T::splat(self.a) + T::splat(self.b) * u) }
-    }
-}
-
-/// A particle's part in a projection: `own` = [u = 2] (does it move) and
-/// `partner` = G(u) (how much its partner moves), so that `s_a = own_a ·
-/// partner_b`. Stored per particle by the lane layout, computed on the fly
-/// elsewhere.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Weights<T> {
-    pub(crate) own: T,
-    pub(crate) partner: T,
-}
-
 /// Projects one bar (the seed's Figure 3): moves `a` and `b` along the bar so
-/// their distance returns towards `rest`, each by its share. Returns
-/// `|len − rest|`, the violation before the projection.
+/// their distance returns towards `rest`, each in proportion to its inverse
+/// mass, ω times the way. Returns `|len − rest|`, the violation before the
+/// projection.
 ///
 /// With `XPBD`, the bar is compliant: `mu` (β·λ of [`crate::sim::relax`], in
 /// metres) accumulates over the passes of a substep and the correction aims
 /// at `C + mu` instead of C, so the bar settles at C = −mu where its spring
-/// holds the load; the shares then already carry the 1/(k + β) of XPBD.
+/// holds the load.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_pair<T: Real, const XPBD: bool>(
     a: &mut Point<T>,
-    wa: Weights<T>,
+    wa: T,
     b: &mut Point<T>,
-    wb: Weights<T>,
+    wb: T,
     rest: T,
     mu: &mut T,
     beta: T,
+    omega: T,
 ) -> T {
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let violation = len - rest;
     let target = if XPBD { violation + *mu } else { violation };
-    let c = target / len.max(T::splat(TINY_LENGTH));
-    let sa = wa.own * wb.partner;
-    let sb = wb.own * wa.partner;
-    let (ca, cb) = (sa * c, sb * c);
+    let weight = wa + wb + beta;
+    // Both ends weigh 0 (fixed, padding): divide by 1 and move nothing.
+    let weight = T::if_moving(weight, weight, T::splat(1.0));
+    let c = omega * target / (len.max(T::splat(TINY_LENGTH)) * weight);
+    let (ca, cb) = (wa * c, wb * c);
     for k in 0..3 {
         a[k] = a[k] + ca * d[k];
         b[k] = b[k] - cb * d[k];
     }
     if XPBD {
-        // β Δλ = −β (C + βλ) / (k + β), and the larger share is ω/(k + β).
-        *mu = *mu - beta * target * sa.max(sb);
+        // β Δλ = −β ω (C + βλ) / (w_a + w_b + β) = −β c ℓ.
+        *mu = *mu - beta * c * len;
     }
     violation.abs()
 }
@@ -225,13 +184,13 @@ pub(crate) fn relax_pair<T: Real, const XPBD: bool>(
 /// Pulls a particle back onto the sphere of radius `reach` around `anchor`
 /// if it is outside (a tether; `reach` is +∞ for particles without one).
 #[inline(always)]
-pub(crate) fn tether<T: Real>(x: &mut Point<T>, anchor: Point<T>, reach: T, u: T) {
+pub(crate) fn tether<T: Real>(x: &mut Point<T>, anchor: Point<T>, reach: T, w: T) {
     let d = [x[0] - anchor[0], x[1] - anchor[1], x[2] - anchor[2]];
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let scale = reach / len.max(T::splat(TINY_LENGTH));
     for k in 0..3 {
         let pulled = anchor[k] + d[k] * scale;
-        x[k] = T::if_greater(len, reach, T::if_free(u, pulled, x[k]), x[k]);
+        x[k] = T::if_greater(len, reach, T::if_moving(w, pulled, x[k]), x[k]);
     }
 }
 
@@ -239,21 +198,21 @@ pub(crate) fn tether<T: Real>(x: &mut Point<T>, anchor: Point<T>, reach: T, u: T
 /// tolerance · rest) if the bar can move (one end free, both present), −∞
 /// otherwise, so that a maximum over bars ignores bars that cannot move.
 #[inline(always)]
-pub(crate) fn excess<T: Real>(violation: T, wa: Weights<T>, wb: Weights<T>, slack: T) -> T {
-    let moves = wa.own * wb.partner + wb.own * wa.partner;
-    T::if_greater(moves, T::splat(0.0), violation - slack, T::splat(f32::NEG_INFINITY))
+pub(crate) fn excess<T: Real>(violation: T, wa: T, wb: T, slack: T) -> T {
+    T::if_greater(wa + wb, T::splat(0.0), violation - slack, T::splat(f32::NEG_INFINITY))
 }
 
-/// Equation 1 in displacement form for a free particle: `d ← keep·d + accel`,
-/// `x ← x + d` (keep = 1 − δ, accel = h²f/m). Fixed and absent particles keep
-/// their bits. Returns the new x, the prediction relaxation starts from.
+/// Equation 1 in displacement form for a particle of inverse mass w > 0:
+/// `d ← keep·d + w·accel`, `x ← x + d` (keep = 1 − δ, accel = h²f/m).
+/// Particles of weight 0 (fixed, padding) keep their bits. Returns the new
+/// x, the prediction relaxation starts from.
 #[inline(always)]
-pub(crate) fn integrate<T: Real>(x: &mut Point<T>, d: &mut Point<T>, u: T, keep: T, accel: Point<T>) -> Point<T> {
+pub(crate) fn integrate<T: Real>(x: &mut Point<T>, d: &mut Point<T>, w: T, keep: T, accel: Point<T>) -> Point<T> {
     for k in 0..3 {
-        let nd = keep * d[k] + accel[k];
+        let nd = keep * d[k] + w * accel[k];
         let nx = x[k] + nd;
-        d[k] = T::if_free(u, nd, d[k]);
-        x[k] = T::if_free(u, nx, x[k]);
+        d[k] = T::if_moving(w, nd, d[k]);
+        x[k] = T::if_moving(w, nx, x[k]);
     }
     *x
 }
@@ -263,9 +222,9 @@ pub(crate) fn integrate<T: Real>(x: &mut Point<T>, d: &mut Point<T>, u: T, keep:
 /// up the rounding of x, so a damped particle comes to rest instead of
 /// creeping by an ulp every step.
 #[inline(always)]
-pub(crate) fn settle<T: Real>(d: &mut Point<T>, x: Point<T>, predicted: Point<T>, u: T) {
+pub(crate) fn settle<T: Real>(d: &mut Point<T>, x: Point<T>, predicted: Point<T>, w: T) {
     for k in 0..3 {
-        d[k] = T::if_free(u, d[k] + (x[k] - predicted[k]), d[k]);
+        d[k] = T::if_moving(w, d[k] + (x[k] - predicted[k]), d[k]);
     }
 }
 
@@ -273,45 +232,46 @@ pub(crate) fn settle<T: Real>(d: &mut Point<T>, x: Point<T>, predicted: Point<T>
 mod tests {
     use super::*;
 
-    /// A rigid projection: [`relax_pair`] without compliance.
-    fn relax_rigid<T: Real>(a: &mut Point<T>, wa: Weights<T>, b: &mut Point<T>, wb: Weights<T>, rest: T) -> T {
-        relax_pair::<T, false>(a, wa, b, wb, rest, &mut T::splat(0.0), T::splat(0.0))
+    /// A rigid projection: [`relax_pair`] without compliance, ω = 1.
+    fn relax_rigid<T: Real>(a: &mut Point<T>, wa: T, b: &mut Point<T>, wb: T, rest: T) -> T {
+        relax_pair::<T, false>(a, wa, b, wb, rest, &mut T::splat(0.0), T::splat(0.0), T::splat(1.0))
     }
 
-    fn relax(a: [f32; 3], ua: f32, b: [f32; 3], ub: f32, rest: f32) -> ([f32; 3], [f32; 3]) {
+    fn relax(a: [f32; 3], wa: f32, b: [f32; 3], wb: f32, rest: f32) -> ([f32; 3], [f32; 3]) {
         let (mut a, mut b) = (a, b);
-        relax_rigid(&mut a, Shares::RIGID.weights(ua), &mut b, Shares::RIGID.weights(ub), rest);
+        relax_rigid(&mut a, wa, &mut b, wb, rest);
         (a, b)
     }
 
     #[test]
-    fn shares_follow_figure_3() {
-        // Free–free: half each. Rest 1, length 2 along x.
-        assert_eq!(relax([0.0; 3], FREE, [2.0, 0.0, 0.0], FREE, 1.0), ([0.5, 0.0, 0.0], [1.5, 0.0, 0.0]));
+    fn shares_follow_figure_3_and_the_inverse_masses() {
+        // Free–free of equal mass: half each. Rest 1, length 2 along x.
+        assert_eq!(relax([0.0; 3], 1.0, [2.0, 0.0, 0.0], 1.0, 1.0), ([0.5, 0.0, 0.0], [1.5, 0.0, 0.0]));
         // Free–fixed: the free end takes it all.
-        assert_eq!(relax([0.0; 3], FIXED, [2.0, 0.0, 0.0], FREE, 1.0), ([0.0; 3], [1.0, 0.0, 0.0]));
-        assert_eq!(relax([0.0; 3], FREE, [2.0, 0.0, 0.0], FIXED, 1.0), ([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]));
-        // Fixed–fixed, and anything with an absent end: nothing moves.
-        assert_eq!(relax([0.0; 3], FIXED, [2.0, 0.0, 0.0], FIXED, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
-        assert_eq!(relax([0.0; 3], FREE, [2.0, 0.0, 0.0], ABSENT, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
-        assert_eq!(relax([0.0; 3], ABSENT, [2.0, 0.0, 0.0], FREE, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
+        assert_eq!(relax([0.0; 3], 0.0, [2.0, 0.0, 0.0], 1.0, 1.0), ([0.0; 3], [1.0, 0.0, 0.0]));
+        assert_eq!(relax([0.0; 3], 1.0, [2.0, 0.0, 0.0], 0.0, 1.0), ([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]));
+        // Both weightless (fixed or padding): nothing moves.
+        assert_eq!(relax([0.0; 3], 0.0, [2.0, 0.0, 0.0], 0.0, 1.0), ([0.0; 3], [2.0, 0.0, 0.0]));
+        // a three times as heavy as b (w 1/3 against 1): a moves 1/4 of the
+        // correction of 1 m, b 3/4.
+        let (a, b) = relax([0.0; 3], 1.0 / 3.0, [2.0, 0.0, 0.0], 1.0, 1.0);
+        assert!((a[0] - 0.25).abs() < 1e-6 && (b[0] - 1.25).abs() < 1e-6, "{a:?} {b:?}");
     }
 
     #[test]
     fn lanes_compute_what_the_scalar_computes() {
         let mut a = [F32x8(std::array::from_fn(|l| l as f32 * 0.3)), F32x8::splat(0.5), F32x8::splat(-1.0)];
         let mut b = [F32x8(std::array::from_fn(|l| 1.0 + l as f32 * 0.7)), F32x8::splat(0.1), F32x8::splat(2.0)];
-        let ua = F32x8([FREE, FREE, FIXED, FREE, ABSENT, FREE, FIXED, FREE]);
-        let ub = F32x8([FREE, FIXED, FREE, ABSENT, FREE, FREE, FIXED, FREE]);
+        let wa = F32x8([1.0, 1.0, 0.0, 1.0, 0.0, 0.5, 0.0, 2.0]);
+        let wb = F32x8([1.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.25]);
         let (a0, b0) = (a, b);
-        let w = |u| Shares::RIGID.weights(u);
-        relax_rigid(&mut a, w(ua), &mut b, w(ub), F32x8::splat(0.8));
+        relax_rigid(&mut a, wa, &mut b, wb, F32x8::splat(0.8));
         for l in 0..LANES {
             let (sa, sb) = relax(
                 [a0[0].0[l], a0[1].0[l], a0[2].0[l]],
-                ua.0[l],
+                wa.0[l],
                 [b0[0].0[l], b0[1].0[l], b0[2].0[l]],
-                ub.0[l],
+                wb.0[l],
                 0.8,
             );
             assert_eq!(sa, [a[0].0[l], a[1].0[l], a[2].0[l]], "lane {l}");
@@ -321,17 +281,15 @@ mod tests {
 
     #[test]
     fn compliant_projection_matches_the_reference_formula() {
-        // The shares-and-μ form against crate::sim::relax's λ form, over a
-        // few passes with β = 0.7, ω = 1.3, free–free and free–fixed.
-        for (ua, wa) in [(FREE, 1.0f32), (FIXED, 0.0)] {
+        // The μ form against crate::sim::relax's λ form, over a few passes
+        // with β = 0.7, ω = 1.3, free–free, free–fixed and unequal masses.
+        for (wa, wb) in [(1.0f32, 1.0f32), (0.0, 1.0), (0.5, 2.0)] {
             let (beta, omega, rest) = (0.7f32, 1.3f32, 1.0f32);
-            let shares = Shares::compliant(beta, omega);
             let (mut a, mut b, mut mu) = ([0.0f32, 0.0, 0.0], [1.8f32, 0.3, -0.2], 0.0f32);
             let (mut ra, mut rb, mut lambda) = (glam::Vec3::from(a), glam::Vec3::from(b), 0.0f32);
             for _ in 0..5 {
-                relax_pair::<f32, true>(&mut a, shares.weights(ua), &mut b, shares.weights(FREE), rest, &mut mu, beta);
-                let (da, db) =
-                    crate::sim::relax::project_bar_compliant(ra, rb, rest, wa, 1.0, beta, &mut lambda, omega);
+                relax_pair::<f32, true>(&mut a, wa, &mut b, wb, rest, &mut mu, beta, omega);
+                let (da, db) = crate::sim::relax::project_bar_compliant(ra, rb, rest, wa, wb, beta, &mut lambda, omega);
                 (ra, rb) = (ra + da, rb + db);
             }
             assert!((glam::Vec3::from(a) - ra).length() < 1e-6 && (glam::Vec3::from(b) - rb).length() < 1e-6);
@@ -343,31 +301,35 @@ mod tests {
     fn tether_pulls_back_only_free_particles_that_are_too_far() {
         let anchor = [0.0f32; 3];
         let mut far = [3.0f32, 4.0, 0.0];
-        tether(&mut far, anchor, 2.5, FREE);
+        tether(&mut far, anchor, 2.5, 1.0);
         assert!((far[0] - 1.5).abs() < 1e-6 && (far[1] - 2.0).abs() < 1e-6, "{far:?}");
         let mut near = [1.0f32, 1.0, 0.0];
-        tether(&mut near, anchor, 2.5, FREE);
+        tether(&mut near, anchor, 2.5, 1.0);
         assert_eq!(near, [1.0, 1.0, 0.0]);
         let mut fixed = [3.0f32, 4.0, 0.0];
-        tether(&mut fixed, anchor, 2.5, FIXED);
+        tether(&mut fixed, anchor, 2.5, 0.0);
         assert_eq!(fixed, [3.0, 4.0, 0.0]);
         let mut untied = [3.0f32, 4.0, 0.0];
-        tether(&mut untied, anchor, f32::INFINITY, FREE);
+        tether(&mut untied, anchor, f32::INFINITY, 1.0);
         assert_eq!(untied, [3.0, 4.0, 0.0]);
     }
 
     #[test]
     fn zero_length_bar_stays_finite() {
-        assert_eq!(relax([1.0; 3], FREE, [1.0; 3], FREE, 0.5), ([1.0; 3], [1.0; 3]));
+        assert_eq!(relax([1.0; 3], 1.0, [1.0; 3], 1.0, 0.5), ([1.0; 3], [1.0; 3]));
     }
 
     #[test]
-    fn integration_leaves_fixed_particles_alone() {
+    fn integration_leaves_fixed_particles_alone_and_scales_the_force_by_weight() {
         let (mut x, mut d) = ([-0.0f32, 1.0, 2.0], [0.0f32; 3]);
-        integrate(&mut x, &mut d, FIXED, 0.98, [1.0; 3]);
+        integrate(&mut x, &mut d, 0.0, 0.98, [1.0; 3]);
         assert_eq!(((-0.0f32).to_bits(), [1.0, 2.0], [0.0; 3]), (x[0].to_bits(), [x[1], x[2]], d));
-        integrate(&mut x, &mut d, FREE, 0.98, [1.0; 3]);
+        integrate(&mut x, &mut d, 1.0, 0.98, [1.0; 3]);
         assert_eq!((x, d), ([1.0, 2.0, 3.0], [1.0; 3]));
+        // Twice the inverse mass, twice the push of a force.
+        let (mut x, mut d) = ([0.0f32; 3], [0.0f32; 3]);
+        integrate(&mut x, &mut d, 2.0, 1.0, [1.0; 3]);
+        assert_eq!(x, [2.0; 3]);
     }
 
     #[test]

@@ -22,6 +22,8 @@
 //!   thread count gives the same bits.
 //! - **Any mesh** (module `generic`): bars are greedily coloured and relaxed colour
 //!   by colour, one thread.
+//! - **Phases.** Both layouts implement [`super::step::Solver`]: the order
+//!   of the phases is written once, in [`super::step::run_substep`].
 //!
 //! The order of projections within a pass differs from the reference (row by
 //! row, and within a row class by class), so the two agree to the accuracy of
@@ -49,91 +51,31 @@ mod kernel;
 use glam::Vec3;
 
 use super::mesh::{Bar, ClothMesh};
-use super::simulation::Substep;
+use super::step::Solver;
 use super::tether::Tethers;
 use generic::GenericLayout;
 use grid::GridLayout;
 
-#[derive(Clone, Debug)]
-enum Layout {
-    Grid(GridLayout),
-    Generic(GenericLayout),
-}
-
-/// The fast solver's state; see the module docs.
-#[derive(Clone, Debug)]
-pub struct FastSolver {
-    layout: Layout,
-    parallel: bool,
-}
-
-impl FastSolver {
-    /// Lays out the state for speed: the lane layout for a grid mesh, the
-    /// coloured layout otherwise. `bars` are the bars to relax (used by the
-    /// coloured layout; the lane layout derives them from the grid).
-    pub fn new(
-        mesh: &ClothMesh,
-        positions: &[Vec3],
-        previous: &[Vec3],
-        fixed: &[bool],
-        bars: &[Bar],
-        tethers: Option<Tethers>,
-    ) -> Self {
-        let parallel = positions.len() >= grid::PARALLEL_PARTICLES;
-        let layout = match GridLayout::new(mesh, positions, previous, fixed, tethers.clone()) {
-            Some(g) => Layout::Grid(g),
-            None => Layout::Generic(GenericLayout::new(positions, previous, fixed, bars, tethers)),
-        };
-        Self { layout, parallel }
-    }
-
-    /// One substep (see [`Substep`]). Returns the relaxation passes done.
-    pub fn step(&mut self, substep: &Substep) -> u32 {
-        let parallel = self.parallel && rayon::current_num_threads() > 1;
-        match &mut self.layout {
-            Layout::Grid(g) => g.step(substep, parallel),
-            Layout::Generic(g) => g.step(substep),
-        }
-    }
-
-    /// Current and previous positions in scene order.
-    pub fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        match &self.layout {
-            Layout::Grid(g) => g.read_state(positions, previous),
-            Layout::Generic(g) => g.read_state(positions, previous),
-        }
-    }
-
-    /// Sets one particle's position and previous position.
-    pub fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
-        match &mut self.layout {
-            Layout::Grid(g) => g.set_particle(index, position, previous),
-            Layout::Generic(g) => g.set_particle(index, position, previous),
-        }
-    }
-
-    /// The first particle (scene order) with a non-finite coordinate.
-    pub fn first_non_finite(&self) -> Option<usize> {
-        match &self.layout {
-            Layout::Grid(g) => g.first_non_finite(),
-            Layout::Generic(g) => g.first_non_finite(),
-        }
-    }
-
-    /// Which layout runs, in a few words (for the viewer and benchmarks).
-    pub fn describe(&self) -> String {
-        let simd = simd_name();
-        match &self.layout {
-            Layout::Grid(g) => {
-                format!("lanes: {}, {simd}{}", g.describe(), if self.parallel { ", threaded" } else { "" })
-            }
-            Layout::Generic(g) => format!("coloured: {} colours, one thread", g.colours()),
-        }
+/// The fast solver for a mesh: the lane layout for a grid mesh, the
+/// coloured layout otherwise. `inverse_mass` is each particle's weight
+/// relative to m (0: fixed); `bars` are the bars to relax (used by the
+/// coloured layout; the lane layout derives them from the grid).
+pub fn new(
+    mesh: &ClothMesh,
+    positions: &[Vec3],
+    previous: &[Vec3],
+    inverse_mass: &[f32],
+    bars: &[Bar],
+    tethers: Option<Tethers>,
+) -> Box<dyn Solver> {
+    match GridLayout::new(mesh, positions, previous, inverse_mass, tethers.clone()) {
+        Some(g) => Box::new(g),
+        None => Box::new(GenericLayout::new(positions, previous, inverse_mass, bars, tethers)),
     }
 }
 
 /// The instruction set the kernels were dispatched to.
-fn simd_name() -> &'static str {
+pub(crate) fn simd_name() -> &'static str {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
         return "AVX2";

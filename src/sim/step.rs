@@ -1,0 +1,115 @@
+//! One substep as a sequence of named phases, and the [`Solver`] trait that
+//! says how each phase runs on a solver's layout.
+//!
+//! This module imports neither solver: [`super::simulation`] drives any
+//! [`Solver`] through [`run_substep`], which is the only place that says in
+//! which order the phases run (after NvCloth's `iterateCloth`):
+//!
+//! ```text
+//! 1. integrate   forces, then equation 1 (or the Euler start, equation 2)
+//!                for every particle of non-zero inverse mass:
+//!                d ← (1 − δ) d + w h² f/m,  x ← x + d     (x_pred = x)
+//! 2. relax       tethers, then `relaxations` Gauss–Seidel passes over the
+//!                bars (the seed's Figure 3, XPBD when compliant)
+//! 3. collide     every particle near a collider is pushed out to the
+//!                thickness along the path it took this substep, and
+//!                Coulomb friction removes (part of) its motion along the
+//!                surface relative to the collider ([`super::contact`])
+//! 4. settle      bookkeeping: d ← d + (x − x_pred), the substep's motion
+//! ```
+//!
+//! A phase that a scene does not need is skipped here, not inside the
+//! solvers: no colliders, no collide phase.
+//!
+//! **Weights.** Every particle carries an inverse mass `w`, relative to the
+//! scene's particle mass m (`w = m / m_i`): 1 for a free particle of a
+//! uniform cloth, 0 for a fixed one. Pinning, unpinning or grabbing a
+//! particle is a write of its weight ([`Solver::set_inverse_mass`]); nothing
+//! is rebuilt. A bar projection moves its ends in proportion to their
+//! weights, and the force moves a particle by `w · h² f/m`.
+
+use std::fmt::Debug;
+
+use glam::Vec3;
+
+use super::contact::ContactStep;
+use super::tether::Tethers;
+
+/// Everything one substep of h/n needs, derived from the parameters by
+/// [`super::Simulation`]; the solvers take it as it is.
+#[derive(Clone, Copy, Debug)]
+pub struct Substep<'a> {
+    /// h/n, seconds.
+    pub dt: f32,
+    /// 1 − δ_n, the share of last substep's motion that is kept.
+    pub keep: f32,
+    /// (h/n)² f / m: what the force adds to the displacement of a particle
+    /// of weight 1 (a particle of weight w gets w times it).
+    pub accel: Vec3,
+    /// For the very first substep: v₀ and the displacement added to h v₀
+    /// (zero for the seed's Euler start, ½ (h/n)² f/m for the second-order one).
+    pub first: Option<(&'a [Vec3], Vec3)>,
+    /// Passes over the bars.
+    pub relaxations: u32,
+    /// Relative strain that ends the passes early (0: off).
+    pub tolerance: f32,
+    /// ω, the over-relaxation of each projection.
+    pub over_relaxation: f32,
+    /// α m / (h/n)² for structural bars (0: rigid), dimensionless.
+    pub stretch_beta: f32,
+    /// α m / (h/n)² for bend bars.
+    pub bend_beta: f32,
+    /// The tether slack when tethers are on.
+    pub tether_slack: Option<f32>,
+}
+
+/// A solver: the state of the cloth in some layout, and how each phase of
+/// [`run_substep`] runs on it.
+pub trait Solver: Debug + Send + Sync {
+    /// Phase 1: forces and integration (equation 1, or equation 2 on the
+    /// first substep). Keeps x_pred for [`Solver::settle`].
+    fn integrate(&mut self, s: &Substep);
+    /// Phase 2: tethers, then the relaxation passes. Returns the passes made.
+    fn relax(&mut self, s: &Substep) -> u32;
+    /// Phase 3: contact and friction with the colliders, for every particle
+    /// of non-zero weight, on the path from where it started the substep to
+    /// where it is now.
+    fn collide(&mut self, contact: &ContactStep);
+    /// Phase 4: the substep's displacement, d ← d + (x − x_pred).
+    fn settle(&mut self);
+
+    /// Current and previous positions, scene order.
+    fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]);
+    /// Sets one particle's position and previous position.
+    fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3);
+    /// Sets one particle's inverse mass (relative to m; 0 fixes it). A write,
+    /// not a rebuild.
+    fn set_inverse_mass(&mut self, index: usize, weight: f32);
+    /// Replaces the tethers (after the set of fixed particles changed), or
+    /// removes them.
+    fn set_tethers(&mut self, tethers: Option<Tethers>);
+    /// The first particle (scene order) with a non-finite coordinate.
+    fn first_non_finite(&self) -> Option<usize>;
+    /// How the solver works, in a few words (layout, SIMD, threads).
+    fn describe(&self) -> String;
+    /// A copy behind a new box (solvers are cloned with their simulation).
+    fn boxed_clone(&self) -> Box<dyn Solver>;
+}
+
+impl Clone for Box<dyn Solver> {
+    fn clone(&self) -> Self {
+        self.boxed_clone()
+    }
+}
+
+/// Runs one substep: the phases in their order, skipping what the scene
+/// does not need. Returns the relaxation passes made.
+pub fn run_substep(solver: &mut dyn Solver, s: &Substep, contact: Option<&ContactStep>) -> u32 {
+    solver.integrate(s);
+    let passes = solver.relax(s);
+    if let Some(contact) = contact {
+        solver.collide(contact);
+    }
+    solver.settle();
+    passes
+}
