@@ -116,6 +116,41 @@ fn bad_scenes_are_rejected_with_the_key_and_what_is_allowed() {
         ("empty", mesh("positions = []\nadjacency = []"), &["no particles"]),
         ("huge", "[grid]\ncolumns = 100000\nrows = 100000\nspacing = 1.0\n".to_string(), &["too many", "16777216"]),
         ("obj_missing", "[obj]\npath = \"nowhere.obj\"\n".to_string(), &["[obj] path", "nowhere.obj"]),
+        // Colliders: the index, the key and what is allowed.
+        (
+            "collider_radius",
+            format!(
+                "{grid}[[collider]]\nshape = \"plane\"\n[[collider]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = -0.5\n"
+            ),
+            &["collider[1].radius", "0 < radius"],
+        ),
+        (
+            "collider_normal",
+            format!("{grid}[[collider]]\nshape = \"plane\"\nnormal = [0.0, 0.0, 0.0]\n"),
+            &["collider[0].normal", "non-zero length"],
+        ),
+        ("collider_shape", format!("{grid}[[collider]]\nshape = \"cone\"\n"), &["unknown variant", "cone", "sphere"]),
+        (
+            "collider_obj_missing",
+            format!("{grid}[[collider]]\nshape = \"mesh\"\npath = \"chair.obj\"\n"),
+            &["chair.obj"],
+        ),
+        (
+            "collider_nan",
+            format!("{grid}[[collider]]\nshape = \"sphere\"\ncenter = [nan, 0.0, 0.0]\nradius = 1.0\n"),
+            &["collider[0].center", "finite"],
+        ),
+        (
+            "collider_friction",
+            format!("{grid}[[collider]]\nshape = \"plane\"\nfriction = -0.2\n"),
+            &["collider[0].friction", "0 <= friction"],
+        ),
+        ("solver_friction", format!("[solver]\nfriction = -1.0\n{grid}"), &["solver.friction", "0 <= friction"]),
+        (
+            "collider_wrong_key",
+            format!("{grid}[[collider]]\nshape = \"plane\"\nradius = 1.0\n"),
+            &["collider[0].radius", "does not apply", "point, normal"],
+        ),
     ];
     for (name, scene, needles) in cases {
         let stderr = rejected(name, &scene);

@@ -203,7 +203,10 @@ fn build_one(i: usize, t: &ColliderTable, read_obj: &ObjReader) -> Result<Collid
                 return Err(invalid(i, "scale", format!("{scale} is not allowed: 0 < scale <= 1e6")));
             }
             let offset = point(i, "offset", t.offset.unwrap_or([0.0; 3]))?;
-            let (vertices, triangles) = read_obj(path)?;
+            let (vertices, triangles) = read_obj(path).map_err(|e| match e {
+                SceneErrorKind::Obj { path, message } => invalid(i, "path", format!("{path}: {message}")),
+                other => other,
+            })?;
             let vertices: Vec<Vec3> = vertices.into_iter().map(|v| v * scale).collect();
             if let Some(v) = vertices.iter().find(|v| !(v.is_finite() && v.abs().max_element() <= MAX_EXTENT)) {
                 return Err(invalid(i, "path", format!("{path}: vertex {v} is beyond ±1e6 m after scaling")));

@@ -120,3 +120,59 @@ fn unknown_scene_lists_the_bundled_ones() {
     let e = load("no-such-scene").unwrap_err().to_string();
     assert!(e.contains("seed") && e.contains("flag"), "{e}");
 }
+
+#[test]
+fn colliders_are_read_with_their_shapes_motions_and_frictions() {
+    let text = format!(
+        "{GRID}[solver]\nthickness = 0.02\nfriction = 0.4\n\
+         [[collider]]\nshape = \"plane\"\nnormal = [0.0, 2.0, 0.0]\n\
+         [[collider]]\nshape = \"capsule\"\nstart = [-1.0, 1.0, 0.0]\nend = [1.0, 1.0, 0.0]\nradius = 0.05\nfriction = 0.9\n\
+         [[collider]]\nshape = \"box\"\ncenter = [0.0, 0.5, 0.0]\nhalf_extents = [0.5, 0.1, 0.5]\nrotation = [0.0, 30.0, 0.0]\nvelocity = [0.2, 0.0, 0.0]\n\
+         [[collider]]\nshape = \"sphere\"\ncenter = [0.0, 2.0, 0.0]\nradius = 0.3\nloop = true\n\
+         [[collider.keyframes]]\ntime = 0.0\n[[collider.keyframes]]\ntime = 2.0\ncenter = [0.0, 1.0, 0.0]\n"
+    );
+    let s = parse(&text, &Origin::Text).unwrap();
+    assert_eq!((s.params.thickness, s.params.friction), (0.02, 0.4));
+    assert_eq!(s.colliders.len(), 4);
+    // The normal is normalised; the capsule's pose sits at its midpoint.
+    assert!(matches!(s.colliders[0].shape, crate::sim::Shape::Plane { normal } if normal == glam::Vec3::Y));
+    assert_eq!(s.colliders[1].pose.translation, glam::Vec3::new(0.0, 1.0, 0.0));
+    assert_eq!(s.colliders[1].friction, Some(0.9));
+    // The box moves at 0.2 m/s: 0.2 m along x after 1 s.
+    assert!((s.colliders[2].pose_at(1.0).translation.x - 0.2).abs() < 1e-6);
+    // The sphere is keyframed: half way down after 1 s, and again after 3 s (looped).
+    for t in [1.0, 3.0] {
+        assert!((s.colliders[3].pose_at(t).translation.y - 1.5).abs() < 1e-6, "t = {t}");
+    }
+    let sim = s.simulation().unwrap();
+    assert_eq!(sim.colliders().len(), 4);
+}
+
+#[test]
+fn bad_colliders_name_the_collider_and_the_key() {
+    let cases = [
+        ("[[collider]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\n", "collider[0].radius"),
+        (
+            "[[collider]]\nshape = \"box\"\ncenter = [0.0, 0.0, 0.0]\nhalf_extents = [1.0, 0.0, 1.0]\n",
+            "collider[0].half_extents",
+        ),
+        (
+            "[[collider]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nvelocity = [1.0, 0.0, 0.0]\n[[collider.keyframes]]\ntime = 0.0\n",
+            "collider[0].keyframes",
+        ),
+        (
+            "[[collider]]\nshape = \"plane\"\n[[collider]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n[[collider.keyframes]]\ntime = 1.0\n[[collider.keyframes]]\ntime = 0.5\n",
+            "collider[1].keyframes[1].time",
+        ),
+        (
+            "[[collider]]\nshape = \"capsule\"\nstart = [0.0, 0.0, 0.0]\nend = [1.0, 0.0, 0.0]\nradius = inf\n",
+            "collider[0].radius",
+        ),
+        ("[[collider]]\nshape = \"mesh\"\n", "collider[0].path"),
+        ("[[collider]]\nshape = \"plane\"\nloop = true\n", "collider[0].loop"),
+    ];
+    for (collider, key) in cases {
+        let e = err(&format!("{GRID}{collider}"));
+        assert!(e.contains(key), "{key} not in: {e}");
+    }
+}

@@ -1,0 +1,238 @@
+//! The phases of a substep ([`crate::sim::step`]) on the lane layout:
+//! integration, tethers and settling tile by tile (eight lanes at a time,
+//! tiles on the thread pool for large grids), relaxation through
+//! [`super::sweep`], and contact.
+
+use glam::Vec3;
+use multiversion::multiversion;
+use rayon::prelude::*;
+
+use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
+use super::{GridLayout, Slot, Tile};
+use crate::sim::contact::ContactStep;
+use crate::sim::fast::kernel::{F32x8, LANES, Real, integrate, settle, tether};
+use crate::sim::step::{Solver, Substep};
+use crate::sim::tether::Tethers;
+
+impl Solver for GridLayout {
+    fn integrate(&mut self, s: &Substep) {
+        let (keep, accel) = match s.first {
+            Some((v0, extra)) => {
+                self.set_initial_velocity(v0, s.dt, extra);
+                (1.0, [0.0; 3])
+            }
+            None => (s.keep, s.accel.to_array()),
+        };
+        let parallel = self.parallel();
+        for_each_tile(&mut self.tiles, parallel, |tile| {
+            integrate_tile(tile, keep, accel);
+            f32::NEG_INFINITY
+        });
+    }
+
+    /// Tethers, then up to `relaxations` sweeps; when `tolerance > 0`, stops
+    /// after a sweep in which every movable bar was within `tolerance`
+    /// (relative) before its projection. Returns the sweeps done.
+    fn relax(&mut self, s: &Substep) -> u32 {
+        let parallel = self.parallel();
+        if let Some(scale) = s.tether_slack.filter(|_| self.tethers.is_some()).map(|slack| 1.0 + slack) {
+            for_each_tile(&mut self.tiles, parallel, |tile| {
+                tether_tile(tile, scale);
+                f32::NEG_INFINITY
+            });
+        }
+        let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
+        if compliant {
+            for tile in &mut self.tiles {
+                tile.multipliers.clear();
+                tile.multipliers.resize(self.ops.len(), F32x8::splat(0.0));
+                tile.seam_multipliers.fill(0.0);
+            }
+        }
+        let sweep = Sweep {
+            ops: &self.ops,
+            tolerance: s.tolerance,
+            betas: [s.stretch_beta, s.bend_beta],
+            omega: s.over_relaxation,
+            compliant,
+        };
+        let mut sweeps = 0;
+        if s.tolerance <= 0.0 && self.tiles.len() == 1 {
+            // One tile and a fixed number of sweeps: overlap them.
+            sweep_tile_pipelined(&mut self.tiles[0], &sweep, &self.row_starts, s.relaxations);
+            sweeps = s.relaxations;
+        }
+        while sweeps < s.relaxations {
+            sweeps += 1;
+            let worst = sweep_tiles(&mut self.tiles, &sweep, parallel);
+            if s.tolerance > 0.0 && worst <= 0.0 {
+                break;
+            }
+        }
+        sweeps
+    }
+
+    /// Tile by tile: the colliders near the tile's box of start (x_pred − d)
+    /// and end positions, then each particle of non-zero weight resolved by
+    /// [`ContactStep::resolve`].
+    fn collide(&mut self, contact: &ContactStep) {
+        let parallel = self.parallel();
+        for_each_tile(&mut self.tiles, parallel, |tile| {
+            collide_tile(tile, contact);
+            f32::NEG_INFINITY
+        });
+    }
+
+    fn settle(&mut self) {
+        let parallel = self.parallel();
+        for_each_tile(&mut self.tiles, parallel, |tile| {
+            settle_tile(tile);
+            f32::NEG_INFINITY
+        });
+    }
+
+    /// Positions and previous positions (x − d) in scene order.
+    fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
+        for (i, loc) in self.locations.iter().enumerate() {
+            let tile = &self.tiles[loc.tile as usize];
+            let (s, l) = (loc.slot as usize, loc.lane as usize);
+            let (p, d) = (&tile.position[s], &tile.displacement[s]);
+            positions[i] = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+            previous[i] = positions[i] - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]);
+        }
+    }
+
+    fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
+        let loc = self.locations[index];
+        let l = loc.lane as usize;
+        let (p, d, w) = self.cell_mut(loc);
+        for k in 0..3 {
+            p[k].0[l] = position[k];
+            d[k].0[l] = position[k] - previous[k];
+        }
+        if w.0[l] == 0.0 {
+            // A moved fixed particle may be an anchor: its tethered particles
+            // follow it (no reallocation, so a drag costs one pass per frame).
+            self.copy_anchor_positions(Some(index as u32));
+        }
+    }
+
+    fn set_inverse_mass(&mut self, index: usize, weight: f32) {
+        let loc = self.locations[index];
+        self.tiles[loc.tile as usize].weight[loc.slot as usize].0[loc.lane as usize] = weight;
+    }
+
+    fn set_tethers(&mut self, tethers: Option<Tethers>) {
+        self.tethers = tethers;
+        self.refresh_tethers();
+    }
+
+    fn first_non_finite(&self) -> Option<usize> {
+        if self.tiles.iter().all(|t| all_finite(&t.position)) {
+            return None;
+        }
+        self.locations.iter().position(|loc| {
+            let p = &self.tiles[loc.tile as usize].position[loc.slot as usize];
+            !p.iter().all(|c| c.0[loc.lane as usize].is_finite())
+        })
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "lanes: {}, {}{}",
+            self.layout_words(),
+            crate::sim::fast::simd_name(),
+            if self.parallel { ", threaded" } else { "" }
+        )
+    }
+
+    fn boxed_clone(&self) -> Box<dyn Solver> {
+        Box::new(self.clone())
+    }
+}
+
+/// The collide phase on one tile.
+fn collide_tile(tile: &mut Tile, contact: &ContactStep) {
+    let Tile { position, displacement, predicted, weight, .. } = tile;
+    let lane = |p: &Slot, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+    // The tile's box of start and end positions of moving particles.
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (((x, d), q), w) in position.iter().zip(displacement.iter()).zip(predicted.iter()).zip(weight.iter()) {
+        for l in 0..LANES {
+            if w.0[l] > 0.0 {
+                let (x, x0) = (lane(x, l), lane(q, l) - lane(d, l));
+                lo = lo.min(x).min(x0);
+                hi = hi.max(x).max(x0);
+            }
+        }
+    }
+    if lo.x > hi.x {
+        return;
+    }
+    let near = contact.near(lo, hi);
+    if near.is_empty() {
+        return;
+    }
+    for (((x, d), q), w) in position.iter_mut().zip(displacement.iter()).zip(predicted.iter()).zip(weight.iter()) {
+        for l in 0..LANES {
+            if w.0[l] > 0.0 {
+                let x0 = lane(q, l) - lane(d, l);
+                let out = contact.resolve(&near, x0, lane(x, l));
+                for k in 0..3 {
+                    x[k].0[l] = out[k];
+                }
+            }
+        }
+    }
+}
+
+/// Applies `f` to every tile, on the thread pool when `parallel`, and returns
+/// the largest result. max is exact and order-free, so the result is the same
+/// on any number of threads.
+pub(super) fn for_each_tile(tiles: &mut [Tile], parallel: bool, f: impl Fn(&mut Tile) -> f32 + Sync + Send) -> f32 {
+    if parallel {
+        tiles.par_iter_mut().map(f).reduce(|| f32::NEG_INFINITY, f32::max)
+    } else {
+        tiles.iter_mut().map(f).fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+fn all_finite(slots: &[Slot]) -> bool {
+    // x·0 is 0 for finite x and NaN otherwise; one NaN makes the sum NaN.
+    let mut acc = F32x8::splat(0.0);
+    for s in slots {
+        for c in s {
+            acc = acc + *c * F32x8::splat(0.0);
+        }
+    }
+    acc.0.iter().all(|a| *a == 0.0)
+}
+
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3]) {
+    let (keep, accel) = (F32x8::splat(keep), accel.map(F32x8::splat));
+    let Tile { position, displacement, predicted, weight, .. } = tile;
+    for (((x, d), q), w) in position.iter_mut().zip(displacement).zip(predicted).zip(weight.iter()) {
+        *q = integrate(x, d, *w, keep, accel);
+    }
+}
+
+/// Pulls tethered particles back within `scale` × their rest path length.
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn tether_tile(tile: &mut Tile, scale: f32) {
+    let Tile { position, weight, tether_anchor, tether_length, .. } = tile;
+    let scale = F32x8::splat(scale);
+    for (((x, w), anchor), length) in
+        position.iter_mut().zip(weight.iter()).zip(tether_anchor.iter()).zip(tether_length.iter())
+    {
+        tether(x, *anchor, *length * scale, *w);
+    }
+}
+
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn settle_tile(tile: &mut Tile) {
+    let Tile { position, displacement, predicted, weight, .. } = tile;
+    for (((x, d), q), w) in position.iter().zip(displacement).zip(predicted.iter()).zip(weight.iter()) {
+        settle(d, *x, *q, *w);
+    }
+}

@@ -1,0 +1,234 @@
+//! The relaxation sweeps of the lane layout: tiles, seam bars between
+//! tiles, overlapped passes on a single tile, and the 8-bar operation.
+
+use multiversion::multiversion;
+use rayon::prelude::*;
+
+use super::{Op, Slot, Tile};
+use crate::sim::fast::kernel::{F32x8, LANES, Real, excess, relax_pair};
+
+/// What every sweep of a substep needs.
+#[derive(Clone, Copy)]
+pub(super) struct Sweep<'a> {
+    pub(super) ops: &'a [Op],
+    pub(super) tolerance: f32,
+    /// β of structural and of bend bars.
+    pub(super) betas: [f32; 2],
+    /// ω, over-relaxation.
+    pub(super) omega: f32,
+    /// Whether any bar is compliant (then μ is kept).
+    pub(super) compliant: bool,
+}
+
+/// One sweep of every tile and of the seam bars between tiles. Tile t owns
+/// the seam bars to tile t + 1 and relaxes them after its own bars. Even
+/// tiles go first, in parallel (a pair (t, t + 1) each, so no two tasks touch
+/// the same tile), then odd tiles. The order is fixed by the tiling alone, so
+/// the result does not depend on the number of threads. Returns the largest
+/// excess over tolerance (see [`excess`]).
+pub(super) fn sweep_tiles(all: &mut [Tile], sweep: &Sweep, parallel: bool) -> f32 {
+    let mut worst = f32::NEG_INFINITY;
+    for first in [0, 1] {
+        let count = all.len();
+        let tiles = &mut all[first.min(count)..];
+        let sweep_pair = |pair: &mut [Tile]| match pair {
+            [a, b] => sweep_tile(a, sweep).max(relax_boundary(a, b, sweep)),
+            [a] => sweep_tile(a, sweep),
+            _ => f32::NEG_INFINITY,
+        };
+        let w = if parallel {
+            tiles.par_chunks_mut(2).map(sweep_pair).reduce(|| f32::NEG_INFINITY, f32::max)
+        } else {
+            tiles.chunks_mut(2).map(sweep_pair).fold(f32::NEG_INFINITY, f32::max)
+        };
+        worst = worst.max(w);
+    }
+    worst
+}
+
+/// Projects the seam bars between tile `a` and the next, `b`, in order.
+fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
+    let mut worst = f32::NEG_INFINITY;
+    let Tile { position, weight, seams, seam_multipliers, .. } = a;
+    for (seam, mu) in seams.iter().zip(seam_multipliers) {
+        let (sa, la, sb, lb) = (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
+        let kind = seam.kind as usize;
+        let mut pa = position[sa].map(|c| c.0[la]);
+        let mut pb = b.position[sb].map(|c| c.0[lb]);
+        let (wa, wb) = (weight[sa].0[la], b.weight[sb].0[lb]);
+        let (beta, omega) = (sweep.betas[kind], sweep.omega);
+        let v = if sweep.compliant {
+            relax_pair::<f32, true>(&mut pa, wa, &mut pb, wb, seam.rest, mu, beta, omega)
+        } else {
+            relax_pair::<f32, false>(&mut pa, wa, &mut pb, wb, seam.rest, mu, 0.0, omega)
+        };
+        for k in 0..3 {
+            position[sa][k].0[la] = pa[k];
+            b.position[sb][k].0[lb] = pb[k];
+        }
+        worst = worst.max(excess(v, wa, wb, sweep.tolerance * seam.rest));
+    }
+    worst
+}
+
+/// One relaxation sweep over every bar inside a tile. Returns the largest
+/// excess over tolerance among movable bars (−∞ when not asked for).
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
+fn sweep_tile(tile: &mut Tile, sweep: &Sweep) -> f32 {
+    match (sweep.compliant, tile.presence.is_empty()) {
+        (true, true) => sweep_ops::<true, false>(tile, sweep),
+        (true, false) => sweep_ops::<true, true>(tile, sweep),
+        (false, true) => sweep_ops::<false, false>(tile, sweep),
+        (false, false) => sweep_ops::<false, true>(tile, sweep),
+    }
+}
+
+#[inline(always)]
+fn sweep_ops<const XPBD: bool, const PADDED: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
+    let track = sweep.tolerance > 0.0;
+    let mut worst = F32x8::splat(f32::NEG_INFINITY);
+    let Tile { position, weight, presence, multipliers, .. } = tile;
+    for (j, &op) in sweep.ops.iter().enumerate() {
+        let (violation, wa, wb) = relax_op::<XPBD, PADDED>(position, weight, presence, multipliers, j, op, sweep);
+        if track {
+            worst = worst.max(excess(violation, wa, wb, F32x8::splat(op.rest * sweep.tolerance)));
+        }
+    }
+    worst.max_lane()
+}
+
+/// Sweeps a tile `sweeps` times, giving exactly the result of
+/// [`sweep_tile`] called `sweeps` times, but with up to [`PIPELINE_DEPTH`]
+/// sweeps in flight: sweep s + 1 works on row r − 3 while sweep s works on
+/// row r.
+///
+/// This is exact because the bars starting in row r touch rows r to r + 2
+/// only: operations of rows three or more apart touch disjoint particles and
+/// commute, so every pair of operations that share a particle still runs in
+/// the sequential order. (With compliant bars each operation keeps its own μ,
+/// which is reset once per substep, before the first sweep.) Interleaving the
+/// independent rows op by op gives the CPU several dependency chains to
+/// overlap instead of one: a row of a narrow cloth is otherwise one long
+/// chain of projections, each waiting for the square root and division of
+/// the last.
+#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
+pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
+    match (sweep.compliant, tile.presence.is_empty()) {
+        (true, true) => sweep_pipelined::<true, false>(tile, sweep, row_starts, sweeps),
+        (true, false) => sweep_pipelined::<true, true>(tile, sweep, row_starts, sweeps),
+        (false, true) => sweep_pipelined::<false, false>(tile, sweep, row_starts, sweeps),
+        (false, false) => sweep_pipelined::<false, true>(tile, sweep, row_starts, sweeps),
+    }
+}
+
+#[inline(always)]
+fn sweep_pipelined<const XPBD: bool, const PADDED: bool>(
+    tile: &mut Tile,
+    sweep: &Sweep,
+    row_starts: &[u32],
+    sweeps: u32,
+) {
+    const LAG: usize = 3;
+    let rows = row_starts.len() - 1;
+    let Tile { position, weight, presence, multipliers, .. } = tile;
+    let mut done = 0;
+    while done < sweeps {
+        let depth = (sweeps - done).min(PIPELINE_DEPTH as u32) as usize;
+        for t in 0..rows + LAG * (depth - 1) {
+            // The rows in flight at time t, one per sweep.
+            let mut groups = [(0usize, 0usize); PIPELINE_DEPTH];
+            let mut longest = 0;
+            for (s, group) in groups.iter_mut().enumerate().take(depth) {
+                if let Some(r) = t.checked_sub(LAG * s).filter(|&r| r < rows) {
+                    *group = (row_starts[r] as usize, row_starts[r + 1] as usize);
+                    longest = longest.max(group.1 - group.0);
+                }
+            }
+            for j in 0..longest {
+                for &(start, end) in &groups[..depth] {
+                    if start + j < end {
+                        let op = sweep.ops[start + j];
+                        relax_op::<XPBD, PADDED>(position, weight, presence, multipliers, start + j, op, sweep);
+                    }
+                }
+            }
+        }
+        done += depth as u32;
+    }
+}
+
+/// Sweeps in flight in [`sweep_tile_pipelined`].
+const PIPELINE_DEPTH: usize = 4;
+
+/// Projects the eight bars of operation `j`. Returns the violations and the
+/// weights used (for the tolerance test).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn relax_op<const XPBD: bool, const PADDED: bool>(
+    position: &mut [Slot],
+    weight: &[F32x8],
+    presence: &[F32x8],
+    multipliers: &mut [F32x8],
+    j: usize,
+    op: Op,
+    sweep: &Sweep,
+) -> (F32x8, F32x8, F32x8) {
+    let (ia, ib) = op.slots();
+    let beta = sweep.betas[op.kind()];
+    let mut dummy = F32x8::splat(0.0);
+    let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
+    let (mut a, mut wa) = (position[ia], weight[ia]);
+    if !op.rotated() {
+        let (mut b, mut wb) = (position[ib], weight[ib]);
+        if PADDED {
+            // A bar to padding does not exist: neither end moves.
+            (wa, wb) = (wa * presence[ib], wb * presence[ia]);
+        }
+        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, op.rest, mu, beta, sweep.omega);
+        position[ib] = b;
+        position[ia] = a;
+        (v, wa, wb)
+    } else {
+        // Lane l meets lane l + 1 of the far slot (the next block); lane 7's
+        // partner is in the next tile (a seam bar, projected on its own), so
+        // both ends' weights are zeroed there and neither moves.
+        let mut b = position[ib].map(F32x8::rotate_down);
+        let mut wb = weight[ib].rotate_down();
+        if PADDED {
+            (wa, wb) = (wa * presence[ib].rotate_down(), wb * presence[ia]);
+        }
+        wa.0[LANES - 1] = 0.0;
+        wb.0[LANES - 1] = 0.0;
+        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, op.rest, mu, beta, sweep.omega);
+        position[ib] = b.map(F32x8::rotate_up);
+        position[ia] = a;
+        (v, wa, wb)
+    }
+}
+
+/// Projects lane l of `a` against lane l of `b` for every lane: the scalar
+/// kernel in a loop that the compiler vectorises lane for lane.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn relax_lanes<const XPBD: bool>(
+    a: &mut Slot,
+    wa: F32x8,
+    b: &mut Slot,
+    wb: F32x8,
+    rest: f32,
+    mu: &mut F32x8,
+    beta: f32,
+    omega: f32,
+) -> F32x8 {
+    let mut violation = F32x8::default();
+    for l in 0..LANES {
+        let mut pa = [a[0].0[l], a[1].0[l], a[2].0[l]];
+        let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
+        violation.0[l] = relax_pair::<f32, XPBD>(&mut pa, wa.0[l], &mut pb, wb.0[l], rest, &mut mu.0[l], beta, omega);
+        for k in 0..3 {
+            a[k].0[l] = pa[k];
+            b[k].0[l] = pb[k];
+        }
+    }
+    violation
+}
