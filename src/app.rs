@@ -1,6 +1,7 @@
 //! The interactive viewer: a winit window showing a [`Viewer`].
 //!
-//! - [`viewer`]: [`Viewer`], everything except the window (testable offscreen).
+//! - [`viewer`]: [`Viewer`], everything except the window (testable offscreen);
+//!   its input (keys, mouse: orbit, grab, pin, move colliders) in `viewer/input.rs`.
 //! - [`grab`]: picking and dragging particles.
 //! - [`stepper`]: steps per frame, and the real-time accumulator.
 //! - [`clock`]: where time comes from.

@@ -280,3 +280,55 @@ fn an_image_larger_than_the_device_allows_is_an_error_not_a_panic() {
     // A small image is accepted.
     assert!(OffscreenTarget::new(device, 64, 64).is_ok());
 }
+
+#[test]
+fn shift_dragging_a_collider_moves_it_and_the_cloth_feels_it() {
+    // The drape-sphere scene: Shift+drag the ball sideways on screen. The
+    // ball follows the cursor in the plane facing the camera, so it moves
+    // to the right in the view; the cloth lying on it is dragged along by
+    // contact and friction, so its centre moves the same way.
+    let mut v = viewer("drape-sphere", &temp_dir("collider-drag"));
+    for n in 0..60 {
+        frame(&mut v, n, vec![]);
+    }
+    let ball = v.simulation().collider_poses()[1].translation;
+    let right = v.camera().backward().cross(Vec3::Y).normalize() * -1.0;
+    let cloth = |v: &Viewer| v.simulation().positions()[20 * 41 + 20];
+    let cloth_before = cloth(&v);
+    // Aim at the ball's side facing the camera, below the cloth's top.
+    // A point inside the ball, towards the camera and below the cloth on
+    // its top: the ray through it meets the ball.
+    let at = v.point_on_screen(ball + v.camera().backward() * 0.2 + Vec3::new(0.0, -0.15, 0.0)).unwrap();
+    let shift = Modifiers::SHIFT;
+    let held = Event::ModifiersChanged(shift);
+    frame(&mut v, 60, vec![held, Event::PointerMoved(at), press(at, PointerButton::Primary, true, shift)]);
+    let camera_before = v.camera().yaw;
+    for n in 61..80 {
+        frame(&mut v, n, vec![Event::PointerMoved(at + vec2(4.0 * (n - 60) as f32, 0.0))]);
+    }
+    frame(&mut v, 80, vec![press(at + vec2(80.0, 0.0), PointerButton::Primary, false, shift)]);
+    let moved = v.simulation().collider_poses()[1].translation - ball;
+    assert!(moved.dot(right) > 0.1, "the ball moved {moved} (camera right is {right})");
+    assert!(moved.y.abs() < 0.05, "it moved in the plane facing the camera: {moved}");
+    assert_eq!(v.camera().yaw, camera_before, "the drag went to the ball, not to orbiting");
+    for n in 81..120 {
+        frame(&mut v, n, vec![]);
+    }
+    let carried = cloth(&v) - cloth_before;
+    assert!(carried.dot(right) > 0.05, "the cloth on the ball went along: {carried}");
+}
+
+#[test]
+fn the_camera_never_orbits_below_the_ground() {
+    let mut v = viewer("drape-sphere", &temp_dir("below-ground"));
+    frame(&mut v, 0, vec![]);
+    // Far away from the cloth: left-drag upwards tilts the view up, which
+    // would bring the eye below the floor.
+    let at = pos2(40.0, 820.0);
+    frame(&mut v, 1, vec![Event::PointerMoved(at), press(at, PointerButton::Primary, true, Modifiers::NONE)]);
+    for n in 2..40 {
+        frame(&mut v, n, vec![Event::PointerMoved(at + vec2(0.0, -20.0 * (n - 1) as f32))]);
+    }
+    let eye = v.camera().eye();
+    assert!(eye.y > 0.0, "the eye went below the ground: {eye}");
+}
