@@ -145,17 +145,24 @@ impl<'a> ContactStep<'a> {
         let mut l = c.end.inverse_apply(x);
         let mut depth = 0.0f32;
         let mut normal = None;
-        // 1. The path entered the shape: stop it on the entry's side.
-        if let Some(entry) = c.shape.entry(l0, l) {
+        let mut near = c.shape.proximity(l);
+        // 1. The path entered the shape: stop it on the entry's side. φ is
+        // 1-Lipschitz, so a path whose end is farther from the shape than
+        // the path is long never touched it, and the ray cast is skipped
+        // (resting and slow particles, the common case) with the same result.
+        if near.is_none_or(|p| p.distance <= l.distance(l0))
+            && let Some(entry) = c.shape.entry(l0, l)
+        {
             let push = r - (l - entry.point).dot(entry.normal);
             if push > 0.0 {
                 l += entry.normal * push;
                 depth += push;
                 normal = Some(entry.normal);
+                near = c.shape.proximity(l);
             }
         }
         // 2. Within the thickness of the surface: out along the normal.
-        if let Some(p) = c.shape.proximity(l) {
+        if let Some(p) = near {
             let push = r - p.distance;
             if push > 0.0 {
                 l += p.normal * push;
