@@ -132,6 +132,59 @@ fn contact(c: &mut Criterion) {
     group.finish();
 }
 
+/// The cost of self-collision as a ratio to the same step without it: a
+/// 256 × 256 cloth of 2 cm lying folded in two on the ground (r = 1.5 cm,
+/// 20 relaxations, all threads), and the `pile` scene after it has piled up.
+fn self_collision(c: &mut Criterion) {
+    let mut group = c.benchmark_group("self-collision");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(4));
+    let n = 256u32;
+    let half = 0.5 * 0.02 * (n - 1) as f32;
+    let mesh = Grid {
+        columns: n,
+        rows: n,
+        spacing: 0.02,
+        plane: GridPlane::Horizontal,
+        origin: Some(Vec3::new(-half, 0.015, -half)),
+        pins: Pins::None,
+        ..Grid::default()
+    }
+    .build()
+    .expect("valid grid");
+    // Folded along x = 0: the right half laid over the left, 1.5 cm higher.
+    let folded: Vec<Vec3> =
+        mesh.positions().iter().map(|p| if p.x > 0.0 { Vec3::new(-p.x, p.y + 0.015, p.z) } else { *p }).collect();
+    let params = SolverParams {
+        relaxations: 20,
+        dt: 0.01,
+        mass: 0.001,
+        gravity: Vec3::new(0.0, -0.0098, 0.0),
+        thickness: 0.015,
+        ..SolverParams::default()
+    };
+    let ground = Collider::fixed(Shape::Plane { normal: Vec3::Y }, Pose::default());
+    for on in [false, true] {
+        let mut sim = Simulation::new(mesh.clone(), SolverParams { self_collision: on, ..params.clone() })
+            .expect("valid scene")
+            .with_colliders(vec![ground.clone()]);
+        sim.set_state(&folded, &folded).expect("finite state");
+        sim.advance(5).expect("no blow-up");
+        let name = if on { "256-folded/with" } else { "256-folded/without" };
+        group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
+    }
+    let scene = drape::scene::load("pile").expect("bundled scene");
+    let mut piled = scene.simulation().expect("valid scene");
+    piled.advance(200).expect("no blow-up");
+    for on in [false, true] {
+        let mut sim = piled.clone();
+        sim.set_params(SolverParams { self_collision: on, ..scene.params.clone() }).expect("valid parameters");
+        let name = if on { "pile/with" } else { "pile/without" };
+        group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
+    }
+    group.finish();
+}
+
 /// Pinning and unpinning one particle of the 256 × 256 cloth: a write of
 /// its weight (goal: under 1 ms; it was a 0.13 s rebuild).
 fn pin(c: &mut Criterion) {
@@ -158,6 +211,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = relaxations, scale, contact, pin
+    targets = relaxations, scale, contact, self_collision, pin
 }
 criterion_main!(benches);

@@ -85,6 +85,9 @@ struct SolverOverrides {
     /// Coulomb friction of colliders that give none of their own (0–100).
     #[arg(long)]
     friction: Option<f32>,
+    /// Turn self-collision on (the cloth kept `thickness` from itself).
+    #[arg(long)]
+    self_collision: bool,
 }
 
 impl SolverOverrides {
@@ -103,6 +106,7 @@ impl SolverOverrides {
         params.start = self.start.unwrap_or(params.start);
         params.thickness = self.thickness.unwrap_or(params.thickness);
         params.friction = self.friction.unwrap_or(params.friction);
+        params.self_collision |= self.self_collision;
         params
     }
 }

@@ -75,6 +75,12 @@ fn table() {
 }
 
 #[test]
+fn pile() {
+    // Self-collision: a strip folded into layers on the ground.
+    common::assert_golden("pile", &render_scene("pile", 150, false));
+}
+
+#[test]
 fn large() {
     // 65 536 particles: few steps keep the test quick.
     common::assert_golden("large", &render_scene("large", 3, false));

@@ -29,10 +29,17 @@ pub const BUNDLED: &[BundledScene] = &[
     scene!("slope"),
     scene!("slope-steep"),
     scene!("carried"),
+    scene!("pile"),
+    scene!("two-sheets"),
+    scene!("drape-sphere-self"),
 ];
 
 /// Bundled OBJ meshes by file name.
-const MESHES: &[(&str, &str)] = &[("tablecloth.obj", include_str!("../../assets/meshes/tablecloth.obj"))];
+const MESHES: &[(&str, &str)] = &[
+    ("tablecloth.obj", include_str!("../../assets/meshes/tablecloth.obj")),
+    ("strip.obj", include_str!("../../assets/meshes/strip.obj")),
+    ("two-sheets.obj", include_str!("../../assets/meshes/two-sheets.obj")),
+];
 
 /// The bundled scene called `name`.
 pub fn find(name: &str) -> Option<&'static BundledScene> {

@@ -74,6 +74,8 @@ pub struct SolverTable {
     pub thickness: f32,
     /// Coulomb coefficient of colliders that give none.
     pub friction: f32,
+    /// Keep the cloth from passing through itself.
+    pub self_collision: bool,
 }
 
 impl Default for SolverTable {
@@ -95,6 +97,7 @@ impl Default for SolverTable {
             start: p.start,
             thickness: p.thickness,
             friction: p.friction,
+            self_collision: p.self_collision,
         }
     }
 }
@@ -292,6 +295,7 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         start: s.start,
         thickness: s.thickness,
         friction: s.friction,
+        self_collision: s.self_collision,
     };
     params.validate().map_err(|e| {
         let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };

@@ -59,6 +59,7 @@
 //! - [`step`]: the substep as named phases (integrate, relax, collide,
 //!   settle) and the [`Solver`] trait each solver implements.
 //! - [`collider`], [`contact`]: colliders, and the collide phase with friction.
+//! - [`self_contact`]: the self-collide phase (cloth against itself).
 //! - [`reference`](mod@reference): the seed's loops written plainly, the yardstick.
 //! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
@@ -74,6 +75,7 @@ pub mod metrics;
 pub mod params;
 pub mod reference;
 pub mod relax;
+pub mod self_contact;
 pub mod simulation;
 pub mod step;
 pub mod tether;

@@ -126,6 +126,11 @@ pub struct SolverParams {
     /// give none of their own. Dimensionless, range `0 ..= 100`, default 0.3
     /// (cotton on wood is about 0.3–0.5; 0 is ice).
     pub friction: f32,
+    /// Keep the cloth from passing through itself ([`super::self_contact`]):
+    /// particles not near each other in the rest shape stay `thickness`
+    /// apart, with friction between layers, and move at most thickness/4 per
+    /// substep. Default false (a scene that does not ask for it pays nothing).
+    pub self_collision: bool,
 }
 
 /// The first step of the simulation.
@@ -159,6 +164,7 @@ impl Default for SolverParams {
             start: Start::Euler,
             thickness: 0.01,
             friction: 0.3,
+            self_collision: false,
         }
     }
 }

@@ -25,6 +25,7 @@ use glam::Vec3;
 use super::contact::ContactStep;
 use super::mesh::{Bar, BarKind};
 use super::relax::{project_bar, project_bar_compliant};
+use super::self_contact::{SelfContact, SelfContactStep};
 use super::step::{Solver, Substep};
 use super::tether::Tethers;
 
@@ -161,6 +162,11 @@ impl Solver for ReferenceSolver {
                 self.positions[i] = contact.resolve(&all, self.previous[i], self.positions[i]);
             }
         }
+    }
+
+    /// Scene order already: the positions and x_{i−1} as they are.
+    fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep) {
+        phase.apply(&mut self.positions, &self.previous, &self.inverse_mass, step);
     }
 
     /// Nothing to do: x_{i−1} was stored by the integration.

@@ -12,6 +12,7 @@ use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
 use super::params::{ParamError, SolverParams, Start};
 use super::reference::ReferenceSolver;
+use super::self_contact::{SelfContact, SelfContactStep};
 use super::step::{Solver, Substep, run_substep};
 use super::tether::Tethers;
 
@@ -93,6 +94,8 @@ pub struct Simulation {
     colliders: Vec<Collider>,
     /// A collider moved by hand since the last step: (index, from, to).
     dragged: Vec<(usize, Pose, Pose)>,
+    /// The self-collide phase's hash grid, while self-collision is on.
+    self_contact: Option<SelfContact>,
     solver: Box<dyn Solver>,
     positions: Vec<Vec3>,
     previous: Vec<Vec3>,
@@ -122,6 +125,7 @@ impl Simulation {
         let previous = positions.clone();
         let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), mesh.bars(), &fixed));
         let solver = build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers);
+        let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
         Ok(Self {
             mesh,
             params,
@@ -130,6 +134,7 @@ impl Simulation {
             inverse_mass,
             colliders: Vec::new(),
             dragged: Vec::new(),
+            self_contact,
             solver,
             positions,
             previous,
@@ -168,6 +173,9 @@ impl Simulation {
     pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
         params.validate()?;
         let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
+        if params.self_collision != self.self_contact.is_some() {
+            self.self_contact = params.self_collision.then(|| SelfContact::new(self.mesh.positions()));
+        }
         self.params = params;
         if tethers_toggled {
             self.refresh_tethers();
@@ -319,7 +327,9 @@ impl Simulation {
                 });
                 let contact = (!self.colliders.is_empty())
                     .then(|| contact_step(&self.colliders, &self.dragged, &p, self.time, k));
-                self.last_passes = run_substep(self.solver.as_mut(), &substep, contact.as_ref());
+                let self_step = SelfContactStep { thickness: p.thickness, friction: p.friction, parallel: true };
+                let self_contact = self.self_contact.as_mut().map(|phase| (phase, &self_step));
+                self.last_passes = run_substep(self.solver.as_mut(), &substep, self_contact, contact.as_ref());
             }
             self.steps += 1;
             self.time += f64::from(p.dt);

@@ -11,11 +11,13 @@
 //!                d ← (1 − δ) d + w h² f/m,  x ← x + d     (x_pred = x)
 //! 2. relax       tethers, then `relaxations` Gauss–Seidel passes over the
 //!                bars (the seed's Figure 3, XPBD when compliant)
-//! 3. collide     every particle near a collider is pushed out to the
+//! 3. self-collide (when on) particles of the cloth kept a thickness apart
+//!                from each other ([`super::self_contact`])
+//! 4. collide     every particle near a collider is pushed out to the
 //!                thickness along the path it took this substep, and
 //!                Coulomb friction removes (part of) its motion along the
 //!                surface relative to the collider ([`super::contact`])
-//! 4. settle      bookkeeping: d ← d + (x − x_pred), the substep's motion
+//! 5. settle      bookkeeping: d ← d + (x − x_pred), the substep's motion
 //! ```
 //!
 //! A phase that a scene does not need is skipped here, not inside the
@@ -33,6 +35,7 @@ use std::fmt::Debug;
 use glam::Vec3;
 
 use super::contact::ContactStep;
+use super::self_contact::{SelfContact, SelfContactStep};
 use super::tether::Tethers;
 
 /// Everything one substep of h/n needs, derived from the parameters by
@@ -75,6 +78,9 @@ pub trait Solver: Debug + Send + Sync {
     /// of non-zero weight, on the path from where it started the substep to
     /// where it is now.
     fn collide(&mut self, contact: &ContactStep);
+    /// Phase 3 (when on): the cloth against itself, through `phase`'s hash
+    /// grid, on the positions and the substep-start positions in scene order.
+    fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep);
     /// Phase 4: the substep's displacement, d ← d + (x − x_pred).
     fn settle(&mut self);
 
@@ -104,9 +110,17 @@ impl Clone for Box<dyn Solver> {
 
 /// Runs one substep: the phases in their order, skipping what the scene
 /// does not need. Returns the relaxation passes made.
-pub fn run_substep(solver: &mut dyn Solver, s: &Substep, contact: Option<&ContactStep>) -> u32 {
+pub fn run_substep(
+    solver: &mut dyn Solver,
+    s: &Substep,
+    self_contact: Option<(&mut SelfContact, &SelfContactStep)>,
+    contact: Option<&ContactStep>,
+) -> u32 {
     solver.integrate(s);
     let passes = solver.relax(s);
+    if let Some((phase, step)) = self_contact {
+        solver.self_collide(phase, step);
+    }
     if let Some(contact) = contact {
         solver.collide(contact);
     }

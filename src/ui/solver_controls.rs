@@ -63,6 +63,7 @@ pub fn solver_controls(
     let weight = edited.gravity.length();
     wind_controls(ui, &mut edited.wind, weight);
     egui::CollapsingHeader::new("accuracy").default_open(false).show(ui, |ui| accuracy_controls(ui, &mut edited));
+    egui::CollapsingHeader::new("contact").default_open(false).show(ui, |ui| contact_controls(ui, &mut edited));
     if edited != *params {
         commands.push(UiCommand::SetParams(edited));
     }
@@ -113,6 +114,19 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
         ui.radio_value(&mut p.start, Start::Euler, "Euler (seed)");
         ui.radio_value(&mut p.start, Start::SecondOrder, "second order");
     });
+}
+
+/// Contact with colliders and with itself: thickness, friction,
+/// self-collision.
+fn contact_controls(ui: &mut Ui, p: &mut SolverParams) {
+    ui.spacing_mut().slider_width = 72.0;
+    ui.add(slider(&mut p.thickness, 0.0..=0.1).suffix(" m").text("thickness"))
+        .on_hover_text("Distance kept from every collider surface, and between layers with self-collision on.");
+    ui.add(slider(&mut p.friction, 0.0..=2.0).text("friction μ"))
+        .on_hover_text("Coulomb's coefficient of colliders that give none, and between layers.");
+    ui.checkbox(&mut p.self_collision, "self-collision").on_hover_text(
+        "Keep the cloth from passing through itself (particles stay a thickness apart; motion capped at thickness/4 per substep).",
+    );
 }
 
 /// A logarithmic slider from 0 to `max` for values that span decades,

@@ -13,6 +13,7 @@ use glam::Vec3;
 use super::kernel::{Point, excess, integrate, relax_pair, settle, tether};
 use crate::sim::contact::ContactStep;
 use crate::sim::mesh::{Bar, BarKind};
+use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
 
@@ -164,6 +165,26 @@ impl Solver for GenericLayout {
                 p.position = contact.resolve(&all, x0, Vec3::from_array(p.position)).to_array();
             }
         }
+    }
+
+    /// Gathers positions, start positions (x_pred − d) and weights, runs
+    /// the phase, writes the positions back.
+    fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep) {
+        let (mut x, mut x0, mut w) =
+            (std::mem::take(&mut phase.x), std::mem::take(&mut phase.x0), std::mem::take(&mut phase.w));
+        x.clear();
+        x0.clear();
+        w.clear();
+        for ((p, d), q) in self.particles.iter().zip(&self.displacement).zip(&self.predicted) {
+            x.push(Vec3::from_array(p.position));
+            x0.push(Vec3::from_array(*q) - Vec3::from_array(*d));
+            w.push(p.weight);
+        }
+        phase.apply(&mut x, &x0, &w, step);
+        for (p, x) in self.particles.iter_mut().zip(&x) {
+            p.position = x.to_array();
+        }
+        (phase.x, phase.x0, phase.w) = (x, x0, w);
     }
 
     fn settle(&mut self) {

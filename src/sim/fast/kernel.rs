@@ -181,6 +181,76 @@ pub(crate) fn relax_pair<T: Real, const XPBD: bool>(
     violation.abs()
 }
 
+/// The equal-mass form of [`relax_pair`], with the shares precomputed per
+/// particle (the lane layout's fast path, whenever every inverse mass is 0
+/// or 1). With c₁ = ω/(1 + β) (partner fixed) and c₂ = ω/(2 + β) (partner
+/// free), the share of end a is `own_a · partner_b`: `own` is 1 for a
+/// particle that moves, `partner` is c₁ for a fixed one, c₂ for a free one
+/// and 0 for lane padding (so a bar to padding moves nothing). This is the
+/// general formula for w ∈ {0, 1} without its per-bar sum and select; for
+/// rigid bars and ω = 1 it gives the same bits (`C/ℓ · ½` is `C/(2ℓ)`).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn relax_pair_shared<T: Real, const XPBD: bool>(
+    a: &mut Point<T>,
+    wa: Weights<T>,
+    b: &mut Point<T>,
+    wb: Weights<T>,
+    rest: T,
+    mu: &mut T,
+    beta: T,
+) -> T {
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let violation = len - rest;
+    let target = if XPBD { violation + *mu } else { violation };
+    let c = target / len.max(T::splat(TINY_LENGTH));
+    let sa = wa.own * wb.partner;
+    let sb = wb.own * wa.partner;
+    let (ca, cb) = (sa * c, sb * c);
+    for k in 0..3 {
+        a[k] = a[k] + ca * d[k];
+        b[k] = b[k] - cb * d[k];
+    }
+    if XPBD {
+        // β Δλ = −β (C + βλ) ω/(k + β), and the larger share is ω/(k + β).
+        *mu = *mu - beta * target * sa.max(sb);
+    }
+    violation.abs()
+}
+
+/// A particle's part in [`relax_pair_shared`]: `own` (does it move) and
+/// `partner` (how far its partner moves).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Weights<T> {
+    pub(crate) own: T,
+    pub(crate) partner: T,
+}
+
+/// c₁ and c₂ of [`relax_pair_shared`] for one kind of bar.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Shares {
+    fixed_partner: f32,
+    free_partner: f32,
+}
+
+impl Shares {
+    /// The shares of a bar with β = α m/h² and over-relaxation ω.
+    pub(crate) fn new(beta: f32, omega: f32) -> Self {
+        Self { fixed_partner: omega / (1.0 + beta), free_partner: omega / (2.0 + beta) }
+    }
+
+    /// The part of a particle of inverse mass `w` (0 or 1) that exists
+    /// (`present`) or is lane padding.
+    pub(crate) fn weights(self, w: f32, present: bool) -> Weights<f32> {
+        match (present, w > 0.0) {
+            (false, _) => Weights { own: 0.0, partner: 0.0 },
+            (true, false) => Weights { own: 0.0, partner: self.fixed_partner },
+            (true, true) => Weights { own: 1.0, partner: self.free_partner },
+        }
+    }
+}
+
 /// Pulls a particle back onto the sphere of radius `reach` around `anchor`
 /// if it is outside (a tether; `reach` is +∞ for particles without one).
 #[inline(always)]
@@ -295,6 +365,45 @@ mod tests {
             assert!((glam::Vec3::from(a) - ra).length() < 1e-6 && (glam::Vec3::from(b) - rb).length() < 1e-6);
             assert!((mu - beta * lambda).abs() < 1e-6, "μ {mu} vs βλ {}", beta * lambda);
         }
+    }
+
+    #[test]
+    fn the_shared_form_is_the_general_one_for_weights_of_zero_and_one() {
+        // Rigid bars at ω = 1: the same bits. Compliant and over-relaxed:
+        // the same to rounding.
+        for (beta, omega) in [(0.0f32, 1.0f32), (0.7, 1.3)] {
+            let shares = Shares::new(beta, omega);
+            for (wa, wb) in [(1.0f32, 1.0f32), (0.0, 1.0), (1.0, 0.0), (0.0, 0.0)] {
+                let (mut a, mut b, mut mu) = ([0.1f32, 0.2, 0.0], [1.9f32, 0.3, -0.2], 0.0f32);
+                let (mut ga, mut gb, mut gmu) = (a, b, 0.0f32);
+                for _ in 0..3 {
+                    let (sa, sb) = (shares.weights(wa, true), shares.weights(wb, true));
+                    relax_pair_shared::<f32, true>(&mut a, sa, &mut b, sb, 1.0, &mut mu, beta);
+                    relax_pair::<f32, true>(&mut ga, wa, &mut gb, wb, 1.0, &mut gmu, beta, omega);
+                }
+                if beta == 0.0 {
+                    assert_eq!((a, b), (ga, gb), "w {wa} {wb}");
+                }
+                for k in 0..3 {
+                    assert!((a[k] - ga[k]).abs() < 1e-6 && (b[k] - gb[k]).abs() < 1e-6, "β {beta}, w {wa} {wb}");
+                }
+                // (A bar between two fixed ends moves nothing; its μ is moot.)
+                assert!(wa + wb == 0.0 || (mu - gmu).abs() < 1e-6, "μ {mu} vs {gmu}");
+            }
+        }
+        // Padding: a bar to it moves neither end.
+        let shares = Shares::new(0.0, 1.0);
+        let (mut a, mut b) = ([0.0f32; 3], [2.0f32, 0.0, 0.0]);
+        relax_pair_shared::<f32, false>(
+            &mut a,
+            shares.weights(1.0, true),
+            &mut b,
+            shares.weights(0.0, false),
+            1.0,
+            &mut 0.0,
+            0.0,
+        );
+        assert_eq!((a, b), ([0.0; 3], [2.0, 0.0, 0.0]));
     }
 
     #[test]

@@ -58,7 +58,7 @@ mod tests;
 
 use glam::Vec3;
 
-use super::kernel::{F32x8, LANES, Point, Real};
+use super::kernel::{F32x8, LANES, Point, Real, Shares, Weights};
 use crate::sim::mesh::{BarKind, ClothMesh, GridShape};
 use crate::sim::tether::Tethers;
 
@@ -170,6 +170,10 @@ struct Tile {
     /// as a weightless (fixed) partner would. Empty when the tile has no
     /// padding, which is then never looked at.
     presence: Vec<F32x8>,
+    /// The equal-mass shares of every slot for structural and for bend bars
+    /// (see [`super::kernel::relax_pair_shared`]), kept in step with
+    /// `weight` while every weight is 0 or 1.
+    shared: [Vec<Weights<F32x8>>; 2],
     /// μ = βλ of every operation's eight bars (compliant bars only).
     multipliers: Vec<F32x8>,
     /// Each particle's tether anchor position, and its rest path length
@@ -247,6 +251,10 @@ pub(crate) struct GridLayout {
     tethers: Option<Tethers>,
     /// Sweep tiles on the thread pool.
     parallel: bool,
+    /// Every inverse mass is 0 or 1: the sweeps use the shares.
+    uniform: bool,
+    /// The shares `shared` was computed with, structural and bend.
+    shares: [Shares; 2],
 }
 
 impl GridLayout {
@@ -310,6 +318,8 @@ impl GridLayout {
             orientation,
             tethers,
             parallel: positions.len() >= PARALLEL_PARTICLES,
+            uniform: true,
+            shares: [Shares::new(0.0, 1.0); 2],
         };
         layout.write_state(positions, previous, inverse_mass);
 
@@ -371,6 +381,7 @@ impl GridLayout {
                 tile.presence = presence;
             }
         }
+        layout.refresh_shares();
         Some(layout)
     }
 
@@ -395,6 +406,53 @@ impl GridLayout {
             w.0[l] = inverse_mass[i];
         }
         self.refresh_tethers();
+        self.refresh_shares();
+    }
+
+    /// Recomputes `uniform` and every slot's shares.
+    fn refresh_shares(&mut self) {
+        self.uniform = self.tiles.iter().all(|t| t.weight.iter().all(|w| w.0.iter().all(|&w| w == 0.0 || w == 1.0)));
+        let shares = self.shares;
+        for tile in &mut self.tiles {
+            for (shared, s) in tile.shared.iter_mut().zip(shares) {
+                shared.clear();
+                shared.extend((0..tile.weight.len()).map(|slot| {
+                    let lane = |l: usize| {
+                        let present = tile.presence.is_empty() || tile.presence[slot].0[l] > 0.0;
+                        s.weights(tile.weight[slot].0[l], present)
+                    };
+                    let lanes: [Weights<f32>; LANES] = std::array::from_fn(lane);
+                    Weights { own: F32x8(lanes.map(|w| w.own)), partner: F32x8(lanes.map(|w| w.partner)) }
+                }));
+            }
+        }
+    }
+
+    /// Sets the shares for β and ω, recomputing the slots' if they changed.
+    fn use_shares(&mut self, shares: [Shares; 2]) {
+        if shares != self.shares {
+            self.shares = shares;
+            self.refresh_shares();
+        }
+    }
+
+    /// Writes one particle's weight; keeps its shares in step (a write of
+    /// one lane), or leaves the share form if the weight is not 0 or 1.
+    fn write_weight(&mut self, index: usize, weight: f32) {
+        let loc = self.locations[index];
+        let (t, s, l) = (loc.tile as usize, loc.slot as usize, loc.lane as usize);
+        self.tiles[t].weight[s].0[l] = weight;
+        if weight != 0.0 && weight != 1.0 {
+            self.uniform = false;
+        } else if self.uniform {
+            for (shared, s_kind) in self.tiles[t].shared.iter_mut().zip(self.shares) {
+                let w = s_kind.weights(weight, true);
+                shared[s].own.0[l] = w.own;
+                shared[s].partner.0[l] = w.partner;
+            }
+        } else {
+            self.refresh_shares();
+        }
     }
 
     /// Sets up the lane arrays of tether anchor positions and rest path

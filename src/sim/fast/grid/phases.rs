@@ -10,7 +10,8 @@ use rayon::prelude::*;
 use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
 use super::{GridLayout, Slot, Tile};
 use crate::sim::contact::ContactStep;
-use crate::sim::fast::kernel::{F32x8, LANES, Real, integrate, settle, tether};
+use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, settle, tether};
+use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
 
@@ -49,7 +50,9 @@ impl Solver for GridLayout {
                 tile.seam_multipliers.fill(0.0);
             }
         }
+        self.use_shares([Shares::new(s.stretch_beta, s.over_relaxation), Shares::new(s.bend_beta, s.over_relaxation)]);
         let sweep = Sweep {
+            uniform: self.uniform,
             ops: &self.ops,
             tolerance: s.tolerance,
             betas: [s.stretch_beta, s.bend_beta],
@@ -81,6 +84,33 @@ impl Solver for GridLayout {
             collide_tile(tile, contact);
             f32::NEG_INFINITY
         });
+    }
+
+    /// Gathers positions, start positions (x_pred − d) and weights into scene
+    /// order, runs the phase, scatters the positions back.
+    fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep) {
+        let (mut x, mut x0, mut w) =
+            (std::mem::take(&mut phase.x), std::mem::take(&mut phase.x0), std::mem::take(&mut phase.w));
+        let n = self.locations.len();
+        x.resize(n, Vec3::ZERO);
+        x0.resize(n, Vec3::ZERO);
+        w.resize(n, 0.0);
+        let lane = |p: &Slot, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+        for (i, loc) in self.locations.iter().enumerate() {
+            let tile = &self.tiles[loc.tile as usize];
+            let (s, l) = (loc.slot as usize, loc.lane as usize);
+            x[i] = lane(&tile.position[s], l);
+            x0[i] = lane(&tile.predicted[s], l) - lane(&tile.displacement[s], l);
+            w[i] = tile.weight[s].0[l];
+        }
+        phase.apply(&mut x, &x0, &w, &SelfContactStep { parallel: step.parallel && self.parallel(), ..*step });
+        for (i, loc) in self.locations.iter().enumerate() {
+            let position = &mut self.tiles[loc.tile as usize].position[loc.slot as usize];
+            for k in 0..3 {
+                position[k].0[loc.lane as usize] = x[i][k];
+            }
+        }
+        (phase.x, phase.x0, phase.w) = (x, x0, w);
     }
 
     fn settle(&mut self) {
@@ -118,8 +148,7 @@ impl Solver for GridLayout {
     }
 
     fn set_inverse_mass(&mut self, index: usize, weight: f32) {
-        let loc = self.locations[index];
-        self.tiles[loc.tile as usize].weight[loc.slot as usize].0[loc.lane as usize] = weight;
+        self.write_weight(index, weight);
     }
 
     fn set_tethers(&mut self, tethers: Option<Tethers>) {

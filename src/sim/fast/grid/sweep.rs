@@ -5,11 +5,13 @@ use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::{Op, Slot, Tile};
-use crate::sim::fast::kernel::{F32x8, LANES, Real, excess, relax_pair};
+use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
 
 /// What every sweep of a substep needs.
 #[derive(Clone, Copy)]
 pub(super) struct Sweep<'a> {
+    /// Every weight is 0 or 1: use the tiles' shares.
+    pub(super) uniform: bool,
     pub(super) ops: &'a [Op],
     pub(super) tolerance: f32,
     /// β of structural and of bend bars.
@@ -75,21 +77,24 @@ fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
 /// excess over tolerance among movable bars (−∞ when not asked for).
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
 fn sweep_tile(tile: &mut Tile, sweep: &Sweep) -> f32 {
-    match (sweep.compliant, tile.presence.is_empty()) {
-        (true, true) => sweep_ops::<true, false>(tile, sweep),
-        (true, false) => sweep_ops::<true, true>(tile, sweep),
-        (false, true) => sweep_ops::<false, false>(tile, sweep),
-        (false, false) => sweep_ops::<false, true>(tile, sweep),
+    match (sweep.compliant, sweep.uniform, tile.presence.is_empty()) {
+        (true, true, _) => sweep_ops::<true, false, true>(tile, sweep),
+        (false, true, _) => sweep_ops::<false, false, true>(tile, sweep),
+        (true, false, true) => sweep_ops::<true, false, false>(tile, sweep),
+        (true, false, false) => sweep_ops::<true, true, false>(tile, sweep),
+        (false, false, true) => sweep_ops::<false, false, false>(tile, sweep),
+        (false, false, false) => sweep_ops::<false, true, false>(tile, sweep),
     }
 }
 
 #[inline(always)]
-fn sweep_ops<const XPBD: bool, const PADDED: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
+fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
     let track = sweep.tolerance > 0.0;
     let mut worst = F32x8::splat(f32::NEG_INFINITY);
-    let Tile { position, weight, presence, multipliers, .. } = tile;
+    let Tile { position, weight, presence, shared, multipliers, .. } = tile;
     for (j, &op) in sweep.ops.iter().enumerate() {
-        let (violation, wa, wb) = relax_op::<XPBD, PADDED>(position, weight, presence, multipliers, j, op, sweep);
+        let (violation, wa, wb) =
+            relax_op::<XPBD, PADDED, UNIFORM>(position, weight, presence, shared, multipliers, j, op, sweep);
         if track {
             worst = worst.max(excess(violation, wa, wb, F32x8::splat(op.rest * sweep.tolerance)));
         }
@@ -113,16 +118,18 @@ fn sweep_ops<const XPBD: bool, const PADDED: bool>(tile: &mut Tile, sweep: &Swee
 /// the last.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
 pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
-    match (sweep.compliant, tile.presence.is_empty()) {
-        (true, true) => sweep_pipelined::<true, false>(tile, sweep, row_starts, sweeps),
-        (true, false) => sweep_pipelined::<true, true>(tile, sweep, row_starts, sweeps),
-        (false, true) => sweep_pipelined::<false, false>(tile, sweep, row_starts, sweeps),
-        (false, false) => sweep_pipelined::<false, true>(tile, sweep, row_starts, sweeps),
+    match (sweep.compliant, sweep.uniform, tile.presence.is_empty()) {
+        (true, true, _) => sweep_pipelined::<true, false, true>(tile, sweep, row_starts, sweeps),
+        (false, true, _) => sweep_pipelined::<false, false, true>(tile, sweep, row_starts, sweeps),
+        (true, false, true) => sweep_pipelined::<true, false, false>(tile, sweep, row_starts, sweeps),
+        (true, false, false) => sweep_pipelined::<true, true, false>(tile, sweep, row_starts, sweeps),
+        (false, false, true) => sweep_pipelined::<false, false, false>(tile, sweep, row_starts, sweeps),
+        (false, false, false) => sweep_pipelined::<false, true, false>(tile, sweep, row_starts, sweeps),
     }
 }
 
 #[inline(always)]
-fn sweep_pipelined<const XPBD: bool, const PADDED: bool>(
+fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
     tile: &mut Tile,
     sweep: &Sweep,
     row_starts: &[u32],
@@ -130,7 +137,7 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool>(
 ) {
     const LAG: usize = 3;
     let rows = row_starts.len() - 1;
-    let Tile { position, weight, presence, multipliers, .. } = tile;
+    let Tile { position, weight, presence, shared, multipliers, .. } = tile;
     let mut done = 0;
     while done < sweeps {
         let depth = (sweeps - done).min(PIPELINE_DEPTH as u32) as usize;
@@ -148,7 +155,16 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool>(
                 for &(start, end) in &groups[..depth] {
                     if start + j < end {
                         let op = sweep.ops[start + j];
-                        relax_op::<XPBD, PADDED>(position, weight, presence, multipliers, start + j, op, sweep);
+                        relax_op::<XPBD, PADDED, UNIFORM>(
+                            position,
+                            weight,
+                            presence,
+                            shared,
+                            multipliers,
+                            start + j,
+                            op,
+                            sweep,
+                        );
                     }
                 }
             }
@@ -164,10 +180,11 @@ const PIPELINE_DEPTH: usize = 4;
 /// weights used (for the tolerance test).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn relax_op<const XPBD: bool, const PADDED: bool>(
+fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
     position: &mut [Slot],
     weight: &[F32x8],
     presence: &[F32x8],
+    shared: &[Vec<Weights<F32x8>>; 2],
     multipliers: &mut [F32x8],
     j: usize,
     op: Op,
@@ -177,6 +194,9 @@ fn relax_op<const XPBD: bool, const PADDED: bool>(
     let beta = sweep.betas[op.kind()];
     let mut dummy = F32x8::splat(0.0);
     let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
+    if UNIFORM {
+        return relax_op_shared::<XPBD>(position, &shared[op.kind()], mu, op, beta);
+    }
     let (mut a, mut wa) = (position[ia], weight[ia]);
     if !op.rotated() {
         let (mut b, mut wb) = (position[ib], weight[ib]);
@@ -204,6 +224,68 @@ fn relax_op<const XPBD: bool, const PADDED: bool>(
         position[ia] = a;
         (v, wa, wb)
     }
+}
+
+/// [`relax_op`] in the share form: the slots' precomputed shares instead of
+/// their weights. Returns the violations and each end's share (for the
+/// tolerance test, which only asks whether a bar can move).
+#[inline(always)]
+fn relax_op_shared<const XPBD: bool>(
+    position: &mut [Slot],
+    shared: &[Weights<F32x8>],
+    mu: &mut F32x8,
+    op: Op,
+    beta: f32,
+) -> (F32x8, F32x8, F32x8) {
+    let (ia, ib) = op.slots();
+    let (mut a, wa) = (position[ia], shared[ia]);
+    let moves = |wa: &Weights<F32x8>, wb: &Weights<F32x8>| (wa.own * wb.partner, wb.own * wa.partner);
+    if !op.rotated() {
+        let (mut b, wb) = (position[ib], shared[ib]);
+        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, op.rest, mu, beta);
+        position[ib] = b;
+        position[ia] = a;
+        let (sa, sb) = moves(&wa, &wb);
+        (v, sa, sb)
+    } else {
+        // As in relax_op: lane 7's partner is a seam bar; zeroing b's own
+        // and partner there zeroes both ends' shares.
+        let mut b = position[ib].map(F32x8::rotate_down);
+        let mut wb = Weights { own: shared[ib].own.rotate_down(), partner: shared[ib].partner.rotate_down() };
+        wb.own.0[LANES - 1] = 0.0;
+        wb.partner.0[LANES - 1] = 0.0;
+        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, op.rest, mu, beta);
+        position[ib] = b.map(F32x8::rotate_up);
+        position[ia] = a;
+        let (sa, sb) = moves(&wa, &wb);
+        (v, sa, sb)
+    }
+}
+
+/// [`relax_lanes`] in the share form.
+#[inline(always)]
+fn shared_lanes<const XPBD: bool>(
+    a: &mut Slot,
+    wa: &Weights<F32x8>,
+    b: &mut Slot,
+    wb: &Weights<F32x8>,
+    rest: f32,
+    mu: &mut F32x8,
+    beta: f32,
+) -> F32x8 {
+    let mut violation = F32x8::default();
+    for l in 0..LANES {
+        let mut pa = [a[0].0[l], a[1].0[l], a[2].0[l]];
+        let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
+        let wal = Weights { own: wa.own.0[l], partner: wa.partner.0[l] };
+        let wbl = Weights { own: wb.own.0[l], partner: wb.partner.0[l] };
+        violation.0[l] = relax_pair_shared::<f32, XPBD>(&mut pa, wal, &mut pb, wbl, rest, &mut mu.0[l], beta);
+        for k in 0..3 {
+            a[k].0[l] = pa[k];
+            b[k].0[l] = pb[k];
+        }
+    }
+    violation
 }
 
 /// Projects lane l of `a` against lane l of `b` for every lane: the scalar

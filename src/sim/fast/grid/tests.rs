@@ -41,7 +41,7 @@ fn weights(mesh: &ClothMesh) -> Vec<f32> {
 
 /// Integrate, relax and settle: a substep without contact.
 fn step(layout: &mut GridLayout, s: &Substep) {
-    crate::sim::step::run_substep(layout, s, None);
+    crate::sim::step::run_substep(layout, s, None, None);
 }
 
 /// A plain substep: no force, no damping, rigid bars, `relaxations` passes.
