@@ -398,6 +398,8 @@ impl Viewer {
             UiCommand::Reset => {
                 self.end_drag();
                 self.sim.reset();
+                // Colliders moved by hand go back where the scene puts them.
+                self.sim.set_colliders(self.scene.colliders.clone());
                 self.stepper.reset();
                 self.touched();
             }

@@ -40,10 +40,9 @@
 //! its ends along it so that it regains its rest length, each end in
 //! proportion to its inverse mass ([`relax`]): a free–free bar of equal
 //! masses moves both ends half way, a free–fixed bar moves the free end the
-//! whole way, and a bar joining two fixed particles is dropped when the
-//! solver is built (the SIMD grid path drops every operation whose lanes are
-//! all such bars; a lane of one inside an operation that moves free
-//! particles has zero weight at both ends and moves nothing). Passes
+//! whole way, and a bar joining two fixed particles has zero weight at both
+//! ends and moves nothing (it is kept, so that pinning or freeing a
+//! particle is a write of its inverse mass, never a rebuild). Passes
 //! are Gauss–Seidel (each projection sees the positions that earlier
 //! projections left) and repeat `relaxations` times per step. This is
 //! position-based dynamics with stiffness 1 (Jakobsen 2001; Müller et al.
@@ -56,8 +55,8 @@
 //! - [`params`]: h, δ, m, relaxations, gravity and wind, with ranges.
 //! - [`mesh`]: particles, bars, triangles; grids, adjacency lists, triangle meshes.
 //! - [`simulation`]: [`Simulation`], the clock and the public state.
-//! - [`step`]: the substep as named phases (integrate, relax, collide,
-//!   settle) and the [`Solver`] trait each solver implements.
+//! - [`step`]: the substep as named phases (integrate, relax, self-collide,
+//!   collide, settle) and the [`Solver`] trait each solver implements.
 //! - [`collider`], [`contact`]: colliders, and the collide phase with friction.
 //! - [`self_contact`]: the self-collide phase (cloth against itself).
 //! - [`reference`](mod@reference): the seed's loops written plainly, the yardstick.

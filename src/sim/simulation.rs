@@ -151,7 +151,8 @@ impl Simulation {
         self
     }
 
-    /// Back to the mesh's initial state and time 0, keeping parameters and solver.
+    /// Back to the mesh's initial state and time 0, keeping parameters,
+    /// solver and colliders (as they are now: see [`Self::set_colliders`]).
     pub fn reset(&mut self) {
         let fresh = Self::with_solver(self.mesh.clone(), self.params.clone(), self.kind);
         // Parameters were validated when set, so rebuilding cannot fail.

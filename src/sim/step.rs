@@ -21,7 +21,10 @@
 //! ```
 //!
 //! A phase that a scene does not need is skipped here, not inside the
-//! solvers: no colliders, no collide phase.
+//! solvers: no colliders, no collide phase; self-collision off, no
+//! self-collide phase. Friction is not a pass of its own: Coulomb's bound
+//! needs each contact's push and normal, so it is applied where the contact
+//! is resolved, particle by particle (as NvCloth does).
 //!
 //! **Weights.** Every particle carries an inverse mass `w`, relative to the
 //! scene's particle mass m (`w = m / m_i`): 1 for a free particle of a
