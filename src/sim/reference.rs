@@ -164,9 +164,11 @@ impl Solver for ReferenceSolver {
         }
     }
 
-    /// Scene order already: the positions and x_{i−1} as they are.
+    /// Scene order already: the positions and x_{i−1} as they are, on one
+    /// thread (the same bits as on many).
     fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep) {
-        phase.apply(&mut self.positions, &self.previous, &self.inverse_mass, step);
+        let step = SelfContactStep { parallel: false, ..*step };
+        phase.apply(&mut self.positions, &self.previous, &self.inverse_mass, &step);
     }
 
     /// Nothing to do: x_{i−1} was stored by the integration.
