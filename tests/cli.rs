@@ -116,6 +116,37 @@ fn bad_scenes_are_rejected_with_the_key_and_what_is_allowed() {
         ("empty", mesh("positions = []\nadjacency = []"), &["no particles"]),
         ("huge", "[grid]\ncolumns = 100000\nrows = 100000\nspacing = 1.0\n".to_string(), &["too many", "16777216"]),
         ("obj_missing", "[obj]\npath = \"nowhere.obj\"\n".to_string(), &["[obj] path", "nowhere.obj"]),
+        // Physical units and the air.
+        ("density_negative", format!("[solver]\ndensity = -0.2\n{grid}"), &["solver.density", "1e-6 <= density"]),
+        (
+            "mass_and_density",
+            format!("[solver]\nmass = 0.1\ndensity = 0.2\n{grid}"),
+            &["solver.mass and solver.density are both given"],
+        ),
+        (
+            "gravity_and_g",
+            format!("[solver]\ngravity = [0.0, -1.0, 0.0]\ng = [0.0, -9.81, 0.0]\n{grid}"),
+            &["solver.gravity and solver.g are both given"],
+        ),
+        (
+            "air_on_adjacency",
+            format!(
+                "[wind]\nmodel = \"air\"\n{}",
+                mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[1],[]]")
+            ),
+            &["wind.model", "no triangles"],
+        ),
+        (
+            "density_on_adjacency",
+            format!(
+                "[solver]\ndensity = 0.2\n{}",
+                mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[1],[]]")
+            ),
+            &["solver.density", "no triangles"],
+        ),
+        ("unknown_preset", format!("[material]\npreset = \"tweed\"\n{grid}"), &["material.preset", "tweed", "denim"]),
+        ("air_key_on_seed", format!("[wind]\nmodel = \"seed\"\ngusts = 0.3\n{grid}"), &["wind.gusts", "\"air\""]),
+        ("gusts_negative", format!("[wind]\nmodel = \"air\"\ngusts = -1.0\n{grid}"), &["wind.gusts", "0 <= gusts"]),
         // Colliders: the index, the key and what is allowed.
         (
             "collider_radius",

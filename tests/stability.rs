@@ -64,6 +64,7 @@ fn max_force(p: &SolverParams) -> f32 {
         Wind::Seed { scale } => Vec3::new(7.0, 12.0, -1.0).length() * scale.abs(),
         Wind::Constant { force } => force.length(),
         Wind::None => 0.0,
+        Wind::Air(_) => unreachable!("the fuzzed settings use a force-valued wind"),
     };
     p.gravity.length() + wind
 }
@@ -223,11 +224,11 @@ fn hundred_thousand_steps_of_the_seeds_scene_stay_bounded() {
 
 #[test]
 fn flag_in_a_ten_times_stronger_wind_stays_bounded_for_a_hundred_thousand_steps() {
-    // The flag scene with its wind scaled ×10 (scale 0.3: peaks of 4.2 N on
-    // 5 g particles, 85 g): the flag is whipped around its pole. Same
-    // criterion as the seed's scene; and every particle stays within 1.5×
-    // the flag's diagonal of the pole's top (it cannot leave its pole).
-    let scene = scene::load("flag").unwrap();
+    // The seed-wind flag scene with its wind scaled ×10 (scale 0.3: peaks
+    // of 4.2 N on 5 g particles, 85 g): the flag is whipped around its pole.
+    // Same criterion as the seed's scene; and every particle stays within
+    // 1.5× the flag's diagonal of the pole's top (it cannot leave its pole).
+    let scene = scene::load("flag-seed").unwrap();
     let Wind::Seed { scale } = scene.params.wind else { panic!("the flag scene uses the seed's wind") };
     let params = SolverParams { wind: Wind::Seed { scale: 10.0 * scale }, ..scene.params.clone() };
     let mut sim = Simulation::new(scene.mesh.clone(), params).unwrap();
@@ -388,4 +389,32 @@ fn every_particle_pinned_and_no_bars_at_all() {
             assert!((f64::from(p.y) - expected).abs() < 1e-4, "{kind:?}: {} vs {expected}", p.y);
         }
     }
+}
+
+#[test]
+fn the_air_flag_in_a_storm_stays_bounded_and_holds_together() {
+    // The air flag in a 30 m/s storm with 50 % gusts (the drag on a
+    // face-on triangle is 14× the scene's): explicit drag is capped per
+    // substep (sim::aero), so nothing grows. 3000 steps = 30 s simulated.
+    let scene = scene::load("flag").unwrap();
+    let Wind::Air(air) = scene.params.wind else { panic!("the flag scene uses moving air") };
+    let storm = drape::sim::Air { velocity: glam::Vec3::new(30.0, 0.0, 0.0), gusts: 0.5, ..air };
+    let params = SolverParams { wind: Wind::Air(storm), ..scene.params.clone() };
+    let mut sim = Simulation::new(scene.mesh.clone(), params).unwrap();
+    let (lo, hi) = bounds(scene.mesh.positions());
+    let reach = 1.5 * lo.distance(hi);
+    let pole = scene.mesh.positions()[0];
+    let mut peaks = [0.0f64; 3];
+    for k in 0..30 {
+        sim.advance(100).unwrap();
+        assert!(sim.positions().iter().all(|p| p.distance(pole) < reach));
+        // 14× the drag stretches cotton at 15 passes × 2 substeps far past
+        // real cloth (measured: RMS strain 0.14–0.55 as it flaps;
+        // inextensibility is issue 13's), but it holds together.
+        assert!(sim.strain().rms < 1.0, "{:?} at t = {}", sim.strain(), sim.time());
+        peaks[k / 10] = peaks[k / 10].max(sim.kinetic_energy());
+    }
+    // Nothing grows: the last 10 s peak no higher than 3× the first 10 s
+    // (measured peaks 50–230 J, a 0.47 kg flag flapping at 15–30 m/s).
+    assert!(peaks[2] < 3.0 * peaks[0], "kinetic energy peaks {peaks:?} J");
 }

@@ -20,6 +20,7 @@ macro_rules! scene {
 pub const BUNDLED: &[BundledScene] = &[
     scene!("seed"),
     scene!("flag"),
+    scene!("flag-seed"),
     scene!("hammock"),
     scene!("chain"),
     scene!("tablecloth"),
@@ -32,6 +33,9 @@ pub const BUNDLED: &[BundledScene] = &[
     scene!("pile"),
     scene!("two-sheets"),
     scene!("drape-sphere-self"),
+    scene!("falling-sheet"),
+    scene!("drape-silk"),
+    scene!("drape-denim"),
 ];
 
 /// Bundled OBJ meshes by file name.

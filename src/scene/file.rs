@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::colliders::{self, ColliderTable};
 use super::{CameraHint, Origin, Scene, SceneErrorKind, bundled};
-use crate::sim::{ClothMesh, Grid, GridPlane, Pins, SolverKind, SolverParams, Start, Wind};
+use crate::sim::{Air, ClothMesh, Grid, GridPlane, Material, Pins, SolverKind, SolverParams, Start, Wind};
 
 /// A scene file as written. See the README for every key.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -26,6 +26,8 @@ pub struct SceneFile {
     /// `[wind]`.
     #[serde(default)]
     pub wind: WindTable,
+    /// `[material]`.
+    pub material: Option<MaterialTable>,
     /// `[grid]`.
     pub grid: Option<GridTable>,
     /// `[mesh]`.
@@ -50,30 +52,39 @@ pub struct SolverTable {
     pub damping: f32,
     /// h, seconds.
     pub dt: f32,
-    /// m, kilograms.
-    pub mass: f32,
-    /// f_g, newtons.
-    pub gravity: [f32; 3],
+    /// m, kilograms (default 0.2); exclusive with `density`.
+    pub mass: Option<f32>,
+    /// f_g, newtons (default [0, −9.8, 0]); exclusive with `g`.
+    pub gravity: Option<[f32; 3]>,
+    /// σ, kg/m².
+    pub density: Option<f32>,
+    /// g, m/s².
+    pub g: Option<[f32; 3]>,
+    /// k_s, N/m; exclusive with `stretch_compliance`.
+    pub stretch_stiffness: Option<f32>,
+    /// B, N·m; exclusive with `bend_compliance`.
+    pub bend_stiffness: Option<f32>,
     /// `fast` (default) or `reference`.
     pub method: SolverKind,
     /// Relative strain below which relaxation stops early (0: off).
     pub tolerance: f32,
     /// Substeps per step.
     pub substeps: u32,
-    /// XPBD compliance of structural bars, m/N.
-    pub stretch_compliance: f32,
-    /// XPBD compliance of bend bars, m/N.
-    pub bend_compliance: f32,
+    /// XPBD compliance of structural bars, m/N (default 0).
+    pub stretch_compliance: Option<f32>,
+    /// XPBD compliance of bend bars, m/N (default 0).
+    pub bend_compliance: Option<f32>,
     /// ω, over-relaxation.
     pub over_relaxation: f32,
     /// Tethers on with this slack; absent is off.
     pub tether_slack: Option<f32>,
     /// `euler` or `second-order`.
     pub start: Start,
-    /// Metres kept from collider surfaces.
-    pub thickness: f32,
-    /// Coulomb coefficient of colliders that give none.
-    pub friction: f32,
+    /// Metres kept from collider surfaces (default 0.01, or the material's).
+    pub thickness: Option<f32>,
+    /// Coulomb coefficient of colliders that give none (default 0.3, or the
+    /// material's).
+    pub friction: Option<f32>,
     /// Keep the cloth from passing through itself.
     pub self_collision: bool,
 }
@@ -85,18 +96,22 @@ impl Default for SolverTable {
             relaxations: p.relaxations,
             damping: p.damping,
             dt: p.dt,
-            mass: p.mass,
-            gravity: p.gravity.to_array(),
+            mass: None,
+            gravity: None,
+            density: None,
+            g: None,
+            stretch_stiffness: None,
+            bend_stiffness: None,
             method: SolverKind::default(),
             tolerance: p.tolerance,
             substeps: p.substeps,
-            stretch_compliance: p.stretch_compliance,
-            bend_compliance: p.bend_compliance,
+            stretch_compliance: None,
+            bend_compliance: None,
             over_relaxation: p.over_relaxation,
             tether_slack: p.tether_slack,
             start: p.start,
-            thickness: p.thickness,
-            friction: p.friction,
+            thickness: None,
+            friction: None,
             self_collision: p.self_collision,
         }
     }
@@ -113,6 +128,8 @@ pub enum WindModel {
     Seed,
     /// A constant force.
     Constant,
+    /// Moving air: drag and lift on triangles.
+    Air,
 }
 
 /// `[wind]`.
@@ -126,6 +143,42 @@ pub struct WindTable {
     pub scale: Option<f32>,
     /// For `constant`: the force, newtons.
     pub vector: Option<[f32; 3]>,
+    /// For `air`: the mean wind, m/s (default still air).
+    pub velocity: Option<[f32; 3]>,
+    /// For `air`: turbulence, a share of the mean speed (default 0).
+    pub gusts: Option<f32>,
+    /// For `air`: metres and seconds of the turbulence's features (default 1).
+    pub gust_scale: Option<f32>,
+    /// For `air`: ρ, kg/m³ (default 1.2).
+    pub density: Option<f32>,
+    /// For `air`: C_d (default 1, or the material's).
+    pub drag: Option<f32>,
+    /// For `air`: C_l (default 0.2, or the material's).
+    pub lift: Option<f32>,
+}
+
+impl WindTable {
+    /// The names of the `air` keys given.
+    fn air_keys(&self) -> Vec<&'static str> {
+        let given = [
+            ("velocity", self.velocity.is_some()),
+            ("gusts", self.gusts.is_some()),
+            ("gust_scale", self.gust_scale.is_some()),
+            ("density", self.density.is_some()),
+            ("drag", self.drag.is_some()),
+            ("lift", self.lift.is_some()),
+        ];
+        given.into_iter().filter(|g| g.1).map(|g| g.0).collect()
+    }
+}
+
+/// `[material]`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialTable {
+    /// A preset's name: `cotton`, `silk`, `denim`, `leather`, `jersey` or
+    /// `rubber`.
+    pub preset: String,
 }
 
 /// `pinned` in `[grid]`: a named pattern or a list of `[column, row]`.
@@ -230,6 +283,7 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
             ));
         }
     };
+    check_surface(&params, &mesh)?;
     let read = |path: &str| -> Result<(Vec<Vec3>, Vec<[u32; 3]>), SceneErrorKind> {
         let (display, text) = obj_text(path, origin)?;
         parse_obj(&text).map_err(|message| SceneErrorKind::Obj { path: display, message })
@@ -256,12 +310,32 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
 fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
     let s = &file.solver;
     let w = &file.wind;
+    if w.model != WindModel::Air
+        && let Some(key) = w.air_keys().first()
+    {
+        return Err(invalid(&format!("wind.{key}"), "applies to model = \"air\""));
+    }
     let wind = match w.model {
         WindModel::None => {
             if w.scale.is_some() || w.vector.is_some() {
                 return Err(invalid("wind", "scale and vector need model = \"seed\" or \"constant\""));
             }
             Wind::None
+        }
+        WindModel::Air => {
+            if w.scale.is_some() || w.vector.is_some() {
+                let key = if w.scale.is_some() { "wind.scale" } else { "wind.vector" };
+                return Err(invalid(key, "applies to \"seed\" or \"constant\"; moving air takes velocity (m/s)"));
+            }
+            let d = Air::default();
+            Wind::Air(Air {
+                velocity: w.velocity.map_or(d.velocity, vec3),
+                gusts: w.gusts.unwrap_or(d.gusts),
+                gust_scale: w.gust_scale.unwrap_or(d.gust_scale),
+                density: w.density.unwrap_or(d.density),
+                drag: w.drag.unwrap_or(d.drag),
+                lift: w.lift.unwrap_or(d.lift),
+            })
         }
         WindModel::Seed => {
             if w.vector.is_some() {
@@ -279,29 +353,105 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
             Wind::Constant { force: vec3(v) }
         }
     };
-    let params = SolverParams {
+    for (a, b, given) in [
+        ("mass", "density", s.mass.is_some() && s.density.is_some()),
+        ("gravity", "g", s.gravity.is_some() && s.g.is_some()),
+        ("stretch_compliance", "stretch_stiffness", s.stretch_compliance.is_some() && s.stretch_stiffness.is_some()),
+        ("bend_compliance", "bend_stiffness", s.bend_compliance.is_some() && s.bend_stiffness.is_some()),
+    ] {
+        if given {
+            return Err(invalid(
+                &format!("solver.{b}"),
+                format!("solver.{a} and solver.{b} are both given; give one (they say the same thing two ways)"),
+            ));
+        }
+    }
+    let d = SolverParams::default();
+    let mut params = SolverParams {
         relaxations: s.relaxations,
         damping: s.damping,
         dt: s.dt,
-        mass: s.mass,
-        gravity: vec3(s.gravity),
+        mass: s.mass.unwrap_or(d.mass),
+        gravity: s.gravity.map_or(d.gravity, vec3),
         wind,
         tolerance: s.tolerance,
         substeps: s.substeps,
-        stretch_compliance: s.stretch_compliance,
-        bend_compliance: s.bend_compliance,
+        stretch_compliance: s.stretch_compliance.unwrap_or(d.stretch_compliance),
+        bend_compliance: s.bend_compliance.unwrap_or(d.bend_compliance),
         over_relaxation: s.over_relaxation,
         tether_slack: s.tether_slack,
         start: s.start,
-        thickness: s.thickness,
-        friction: s.friction,
+        thickness: d.thickness,
+        friction: d.friction,
         self_collision: s.self_collision,
+        density: None,
+        gravity_acceleration: s.g.map(vec3),
+        stretch_stiffness: None,
+        bend_stiffness: None,
     };
+    if let Some(table) = &file.material {
+        let Some(material) = Material::from_name(&table.preset) else {
+            let names: Vec<&str> = Material::ALL.iter().map(|m| m.name()).collect();
+            return Err(invalid(
+                "material.preset",
+                format!("\"{}\" is not a material; use one of {}", table.preset, names.join(", ")),
+            ));
+        };
+        material.apply(&mut params);
+        // A preset's mass is per area: a `mass` beside it replaces it.
+        if s.mass.is_some() {
+            params.density = None;
+        }
+        if s.stretch_compliance.is_some() {
+            params.stretch_stiffness = None;
+        }
+        if s.bend_compliance.is_some() {
+            params.bend_stiffness = None;
+        }
+    }
+    // Keys given override the preset.
+    params.density = s.density.or(params.density);
+    // A mass per area falls at g unless the scene says otherwise (the
+    // seed's force per particle would be absurd for particles of any size).
+    if params.density.is_some() && s.gravity.is_none() && s.g.is_none() {
+        params.gravity_acceleration = Some(Vec3::new(0.0, -9.81, 0.0));
+    }
+    params.stretch_stiffness = s.stretch_stiffness.or(params.stretch_stiffness);
+    params.bend_stiffness = s.bend_stiffness.or(params.bend_stiffness);
+    params.thickness = s.thickness.unwrap_or(params.thickness);
+    params.friction = s.friction.unwrap_or(params.friction);
+    if let Wind::Air(air) = &mut params.wind {
+        air.drag = w.drag.unwrap_or(air.drag);
+        air.lift = w.lift.unwrap_or(air.lift);
+    }
     params.validate().map_err(|e| {
         let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };
         invalid(&key, format!("{} is not allowed: {}", e.value, e.allowed))
     })?;
     Ok(params)
+}
+
+/// Refuses what needs triangles on a mesh without them (an adjacency list).
+fn check_surface(params: &SolverParams, mesh: &ClothMesh) -> Result<(), SceneErrorKind> {
+    if !mesh.triangles().is_empty() {
+        return Ok(());
+    }
+    let needs = [
+        ("wind.model", params.wind.air().is_some(), "model = \"air\" pushes on triangles"),
+        ("solver.density", params.density.is_some(), "a density is a mass per area"),
+        ("solver.stretch_stiffness", params.stretch_stiffness.is_some(), "a stiffness in N/m is per width of cloth"),
+        ("solver.bend_stiffness", params.bend_stiffness.is_some(), "a bend stiffness is per width of cloth"),
+    ];
+    match needs.into_iter().find(|n| n.1) {
+        Some((key, _, why)) => Err(invalid(
+            key,
+            format!(
+                "{why}, and this mesh has none: a [mesh] adjacency list has bars but no triangles (use a [grid] or \
+                 an [obj], or mass, compliance and the \"seed\" or \"constant\" wind)"
+            ),
+        )),
+        None => Ok(()),
+    }
 }
 
 fn grid_mesh(g: &GridTable) -> Result<ClothMesh, SceneErrorKind> {

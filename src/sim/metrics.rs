@@ -56,22 +56,31 @@ pub fn strain(positions: &[Vec3], bars: &[Bar], fixed: &[bool]) -> Strain {
     Strain { max, rms: (sum_sq / count as f64).sqrt() as f32 }
 }
 
-/// Kinetic energy `Σ ½ m |(x − x_prev)/h|²` over the particles not fixed, joules.
-pub fn kinetic_energy(positions: &[Vec3], previous: &[Vec3], fixed: &[bool], mass: f32, dt: f32) -> f64 {
+/// Kinetic energy `Σ ½ m_i |(x − x_prev)/h|²` over the particles not fixed,
+/// joules (`masses` in kg, one per particle).
+pub fn kinetic_energy(positions: &[Vec3], previous: &[Vec3], fixed: &[bool], masses: &[f32], dt: f32) -> f64 {
     let sum: f64 = positions
         .iter()
         .zip(previous)
         .zip(fixed)
-        .filter(|&(_, &f)| !f)
-        .map(|((&x, &p), _)| f64::from((x - p).length_squared()))
+        .zip(masses)
+        .filter(|&((_, &f), _)| !f)
+        .map(|(((&x, &p), _), &m)| f64::from(m) * f64::from((x - p).length_squared()))
         .sum();
-    0.5 * f64::from(mass) * sum / (f64::from(dt) * f64::from(dt))
+    0.5 * sum / (f64::from(dt) * f64::from(dt))
 }
 
-/// Potential energy of a constant force field `−Σ f · x` over the particles not
-/// fixed, joules (gravity's, with `f` the force on one particle).
-pub fn potential_energy(positions: &[Vec3], fixed: &[bool], force: Vec3) -> f64 {
-    positions.iter().zip(fixed).filter(|&(_, &f)| !f).map(|(&x, _)| -f64::from(force.dot(x))).sum()
+/// Potential energy of a uniform acceleration field `−Σ m_i g · x` over the
+/// particles not fixed, joules (gravity's, `g` in m/s², `masses` in kg).
+pub fn potential_energy(positions: &[Vec3], fixed: &[bool], masses: &[f32], g: Vec3) -> f64 {
+    let g = g.as_dvec3();
+    positions
+        .iter()
+        .zip(fixed)
+        .zip(masses)
+        .filter(|&((_, &f), _)| !f)
+        .map(|((&x, _), &m)| -f64::from(m) * g.dot(x.as_dvec3()))
+        .sum()
 }
 
 /// Largest distance between matching points divided by `length`: the static
@@ -169,13 +178,14 @@ mod tests {
         // Particle 0 moved 0.1 m in h = 0.05 s → v = 2 m/s → ½·0.2·4 = 0.4 J.
         let x = [Vec3::new(0.1, 0.0, 0.0), Vec3::new(5.0, 0.0, 0.0)];
         let p = [Vec3::ZERO, Vec3::ZERO];
-        let e = kinetic_energy(&x, &p, &[false, true], 0.2, 0.05);
+        let e = kinetic_energy(&x, &p, &[false, true], &[0.2, 0.2], 0.05);
         assert!((e - 0.4).abs() < 1e-6, "{e}");
     }
 
     #[test]
     fn potential_energy_of_gravity_is_weight_times_height() {
-        let e = potential_energy(&[Vec3::new(0.0, 2.0, 0.0)], &[false], Vec3::new(0.0, -9.8, 0.0));
-        assert!((e - 19.6).abs() < 1e-5, "{e}");
+        // 0.5 kg at 2 m under 9.8 m/s²: 9.8 J.
+        let e = potential_energy(&[Vec3::new(0.0, 2.0, 0.0)], &[false], &[0.5], Vec3::new(0.0, -9.8, 0.0));
+        assert!((e - 9.8).abs() < 1e-5, "{e}");
     }
 }

@@ -63,12 +63,16 @@
 //! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
 //! - [`tether`]: long-range attachments that bound stretch.
+//! - [`aero`]: the air phase (drag and lift on triangles, turbulence).
+//! - [`units`], [`material`]: masses and stiffness in physical units, fabric presets.
 //! - [`exact`]: exact answers (discrete free fall, pendulum, catenary) for tests and error measures.
 
+pub mod aero;
 pub mod collider;
 pub mod contact;
 pub mod exact;
 pub mod fast;
+pub mod material;
 pub mod mesh;
 pub mod metrics;
 pub mod params;
@@ -78,12 +82,14 @@ pub mod self_contact;
 pub mod simulation;
 pub mod step;
 pub mod tether;
+pub mod units;
 pub mod wind;
 
 pub use collider::{Collider, Keyframe, MeshShape, Motion, Pose, Shape};
+pub use material::Material;
 pub use mesh::{Bar, BarKind, ClothMesh, Grid, GridPlane, GridShape, MeshError, MeshParts, Pins};
 pub use metrics::{Strain, StrainHistory};
 pub use params::{ParamError, SolverParams, Start};
 pub use simulation::{SimError, Simulation, SolverKind};
 pub use step::{Solver, Substep};
-pub use wind::Wind;
+pub use wind::{Air, Wind};

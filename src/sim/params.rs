@@ -28,6 +28,14 @@ pub const MAX_COMPLIANCE: f32 = 1.0;
 pub const MAX_THICKNESS: f32 = 10.0;
 /// Largest accepted friction coefficient.
 pub const MAX_FRICTION: f32 = 100.0;
+/// Accepted area densities σ, kg/m² (a soap film is 1e-6, a steel sheet 1e4).
+pub const DENSITY_RANGE: std::ops::RangeInclusive<f32> = 1e-6..=1e4;
+/// Largest accepted magnitude of any component of g, m/s².
+pub const MAX_ACCELERATION: f32 = 1e4;
+/// Accepted stretch stiffness, N/m.
+pub const STRETCH_STIFFNESS_RANGE: std::ops::RangeInclusive<f32> = 1e-3..=1e9;
+/// Accepted bend stiffness, N·m.
+pub const BEND_STIFFNESS_RANGE: std::ops::RangeInclusive<f32> = 1e-12..=1e3;
 
 /// How the solver spends its work on one step, and the forces it applies.
 ///
@@ -131,6 +139,28 @@ pub struct SolverParams {
     /// apart, with friction between layers, and move at most thickness/4 per
     /// substep. Default false (a scene that does not ask for it pays nothing).
     pub self_collision: bool,
+    /// σ: the cloth's area density, kg/m². When given, each particle's mass
+    /// is σ times a third of the area of the triangles around it
+    /// ([`super::units`]), so a cloth weighs σ × its area at any resolution,
+    /// and `mass` is not used. Needs a mesh with triangles. Range
+    /// `1e-6 ..= 1e4`, default `None` (every particle weighs `mass`, the
+    /// seed's way).
+    pub density: Option<f32>,
+    /// g: gravity as an acceleration, m/s², the same for every particle
+    /// whatever its mass. When given, `gravity` (a force) is not used.
+    /// Components within ±1e4, default `None` (the seed's force).
+    pub gravity_acceleration: Option<Vec3>,
+    /// k_s: stretch stiffness, N/m (force per unit width per unit strain;
+    /// Young's modulus times thickness). When given, it sets the structural
+    /// bars' compliance from the mesh ([`super::units`]) in place of
+    /// `stretch_compliance`. Needs a mesh with triangles. Range
+    /// `1e-3 ..= 1e9`, default `None`.
+    pub stretch_stiffness: Option<f32>,
+    /// B: bend stiffness (flexural rigidity), N·m. When given, it sets the
+    /// bend bars' compliance from the mesh ([`super::units`]) in place of
+    /// `bend_compliance`. Needs a mesh with triangles. Range `1e-12 ..= 1e3`,
+    /// default `None`.
+    pub bend_stiffness: Option<f32>,
 }
 
 /// The first step of the simulation.
@@ -165,6 +195,10 @@ impl Default for SolverParams {
             thickness: 0.01,
             friction: 0.3,
             self_collision: false,
+            density: None,
+            gravity_acceleration: None,
+            stretch_stiffness: None,
+            bend_stiffness: None,
         }
     }
 }
@@ -247,6 +281,27 @@ impl SolverParams {
             return Err(ParamError::new("thickness", self.thickness, "metres, 0 <= thickness <= 10"));
         }
         check_friction("friction", self.friction)?;
+        if let Some(sigma) = self.density
+            && !DENSITY_RANGE.contains(&sigma)
+        {
+            return Err(ParamError::new("density", sigma, "kg/m², 1e-6 <= density <= 1e4"));
+        }
+        if let Some(g) = self.gravity_acceleration
+            && !(g.is_finite() && g.abs().max_element() <= MAX_ACCELERATION)
+        {
+            let value = format!("[{}, {}, {}]", g.x, g.y, g.z);
+            return Err(ParamError::new("g", value, "m/s², finite components within ±1e4"));
+        }
+        if let Some(k) = self.stretch_stiffness
+            && !STRETCH_STIFFNESS_RANGE.contains(&k)
+        {
+            return Err(ParamError::new("stretch_stiffness", k, "N/m, 1e-3 <= stretch_stiffness <= 1e9"));
+        }
+        if let Some(b) = self.bend_stiffness
+            && !BEND_STIFFNESS_RANGE.contains(&b)
+        {
+            return Err(ParamError::new("bend_stiffness", b, "N·m, 1e-12 <= bend_stiffness <= 1e3"));
+        }
         self.wind.validate()
     }
 
@@ -305,6 +360,18 @@ mod tests {
             (SolverParams { thickness: -0.01, ..base.clone() }, "thickness"),
             (SolverParams { friction: f32::NAN, ..base.clone() }, "friction"),
             (SolverParams { friction: -0.1, ..base.clone() }, "friction"),
+            (SolverParams { density: Some(-0.2), ..base.clone() }, "density"),
+            (SolverParams { density: Some(f32::NAN), ..base.clone() }, "density"),
+            (SolverParams { gravity_acceleration: Some(Vec3::new(0.0, 1e5, 0.0)), ..base.clone() }, "g"),
+            (SolverParams { stretch_stiffness: Some(0.0), ..base.clone() }, "stretch_stiffness"),
+            (SolverParams { bend_stiffness: Some(f32::INFINITY), ..base.clone() }, "bend_stiffness"),
+            (
+                SolverParams {
+                    wind: Wind::Air(crate::sim::wind::Air { gusts: -1.0, ..Default::default() }),
+                    ..base.clone()
+                },
+                "wind.gusts",
+            ),
         ];
         for (params, name) in cases {
             let err = params.validate().expect_err(name);

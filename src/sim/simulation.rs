@@ -5,6 +5,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::aero::{AeroStep, Aerodynamics};
 use super::collider::{Collider, Motion, Pose};
 use super::contact::ContactStep;
 use super::fast;
@@ -13,8 +14,9 @@ use super::metrics::{self, Strain};
 use super::params::{ParamError, SolverParams, Start};
 use super::reference::ReferenceSolver;
 use super::self_contact::{SelfContact, SelfContactStep};
-use super::step::{Solver, Substep, run_substep};
+use super::step::{Phases, Solver, Substep, run_substep};
 use super::tether::Tethers;
+use super::units;
 
 /// Which solver advances the cloth. Both implement the same equations; they
 /// differ in order of work and speed (see [`super::reference`]).
@@ -87,10 +89,14 @@ pub struct Simulation {
     mesh: Arc<ClothMesh>,
     params: SolverParams,
     kind: SolverKind,
+    /// Masses and compliances derived from the parameters and the mesh.
+    material: Derived,
     /// Which particles are fixed now (inverse mass 0).
     fixed: Vec<bool>,
-    /// Each particle's inverse mass relative to m (0: fixed).
+    /// Each particle's inverse mass relative to m̄ (0: fixed).
     inverse_mass: Vec<f32>,
+    /// The air phase's state, with the wind model "air".
+    aero: Option<Aerodynamics>,
     colliders: Vec<Collider>,
     /// A collider moved by hand since the last step: (index, from, to).
     dragged: Vec<(usize, Pose, Pose)>,
@@ -119,8 +125,11 @@ impl Simulation {
     ) -> Result<Self, SimError> {
         params.validate()?;
         let mesh = mesh.into();
+        let material = Derived::new(&mesh, &params)?;
+        let aero = aerodynamics(&mesh, &params, &material)?;
         let fixed = mesh.fixed().to_vec();
-        let inverse_mass: Vec<f32> = fixed.iter().map(|&f| if f { 0.0 } else { 1.0 }).collect();
+        let inverse_mass: Vec<f32> =
+            fixed.iter().zip(&material.weight).map(|(&f, &w)| if f { 0.0 } else { w }).collect();
         let positions = mesh.positions().to_vec();
         let previous = positions.clone();
         let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), mesh.bars(), &fixed));
@@ -130,8 +139,10 @@ impl Simulation {
             mesh,
             params,
             kind,
+            material,
             fixed,
             inverse_mass,
+            aero,
             colliders: Vec::new(),
             dragged: Vec::new(),
             self_contact,
@@ -170,9 +181,26 @@ impl Simulation {
     pub fn params(&self) -> &SolverParams {
         &self.params
     }
-    /// Changes the parameters; they apply from the next step on.
+    /// Changes the parameters; they apply from the next step on. A new
+    /// density rewrites every free particle's weight (no rebuild).
     pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
         params.validate()?;
+        let material = Derived::new(&self.mesh, &params)?;
+        let aero = if params.wind.air().is_some() == self.aero.is_some() && material.mass == self.material.mass {
+            self.aero.take()
+        } else {
+            aerodynamics(&self.mesh, &params, &material)?
+        };
+        self.aero = aero;
+        if material.weight != self.material.weight {
+            for (i, &w) in material.weight.iter().enumerate() {
+                if !self.fixed[i] {
+                    self.inverse_mass[i] = w;
+                    self.solver.set_inverse_mass(i, w);
+                }
+            }
+        }
+        self.material = material;
         let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
         if params.self_collision != self.self_contact.is_some() {
             self.self_contact = params.self_collision.then(|| SelfContact::new(self.mesh.positions()));
@@ -214,9 +242,28 @@ impl Simulation {
     pub fn fixed(&self) -> &[bool] {
         &self.fixed
     }
-    /// Each particle's inverse mass relative to m: 1 free, 0 fixed.
+    /// Each particle's inverse mass relative to m̄ ([`Self::mean_mass`]):
+    /// m̄/m_i when free (1 for a cloth of equal masses), 0 fixed.
     pub fn inverse_masses(&self) -> &[f32] {
         &self.inverse_mass
+    }
+    /// Every particle's mass m_i, kg: `mass` each, or σ times its area.
+    pub fn masses(&self) -> &[f32] {
+        &self.material.mass
+    }
+    /// m̄: the mean particle mass, kg (the m of equation 1).
+    pub fn mean_mass(&self) -> f32 {
+        self.material.mean
+    }
+    /// The compliances in use, m/N, structural and bend: the parameters'
+    /// own, or those derived from `stretch_stiffness` and `bend_stiffness`.
+    pub fn compliances(&self) -> (f32, f32) {
+        (self.material.stretch_compliance, self.material.bend_compliance)
+    }
+    /// The air's total force on the cloth in the last substep, N (zero
+    /// without the "air" wind).
+    pub fn air_force(&self) -> Vec3 {
+        self.aero.as_ref().map_or(Vec3::ZERO, Aerodynamics::total_force)
     }
     /// Every bar of the mesh (the solvers visit each; one between two fixed
     /// particles moves nothing).
@@ -298,39 +345,59 @@ impl Simulation {
         }
         let p = self.params.clone();
         let dt = p.substep_dt();
-        let beta = |alpha: f32| alpha * p.mass / (dt * dt);
+        let mass = self.material.mean;
+        let beta = |alpha: f32| alpha * mass / (dt * dt);
+        // Gravity is a force (the seed's) or an acceleration (g).
+        let (gravity_force, gravity) = match p.gravity_acceleration {
+            Some(g) => (Vec3::ZERO, g * (dt * dt)),
+            None => (p.gravity, Vec3::ZERO),
+        };
         for _ in 0..n {
             // The wind is sampled once per step, at its start.
-            let mut force = p.gravity;
+            let mut force = gravity_force;
             if !p.wind.is_none() {
                 force += p.wind.force(self.time);
             }
-            let accel = force * (dt * dt / p.mass);
+            let accel = force * (dt * dt / mass);
             let mut substep = Substep {
                 dt,
                 keep: 1.0 - p.substep_damping(),
                 accel,
+                gravity,
                 first: None,
                 relaxations: p.relaxations,
                 tolerance: p.tolerance,
                 over_relaxation: p.over_relaxation,
-                stretch_beta: beta(p.stretch_compliance),
-                bend_beta: beta(p.bend_compliance),
+                stretch_beta: beta(self.material.stretch_compliance),
+                bend_beta: beta(self.material.bend_compliance),
                 tether_slack: p.tether_slack,
             };
             for k in 0..p.substeps {
                 substep.first = (self.steps == 0 && k == 0).then(|| {
                     let extra = match p.start {
                         Start::Euler => Vec3::ZERO,
-                        Start::SecondOrder => 0.5 * accel,
+                        // Exact for equal masses; with a density and g, a
+                        // particle of weight w gets ½h²g·w (w ≠ 1 only at edges).
+                        Start::SecondOrder => 0.5 * (accel + gravity),
                     };
                     (self.mesh.velocities(), extra)
                 });
                 let contact = (!self.colliders.is_empty())
                     .then(|| contact_step(&self.colliders, &self.dragged, &p, self.time, k));
                 let self_step = SelfContactStep { thickness: p.thickness, friction: p.friction, parallel: true };
-                let self_contact = self.self_contact.as_mut().map(|phase| (phase, &self_step));
-                self.last_passes = run_substep(self.solver.as_mut(), &substep, self_contact, contact.as_ref());
+                let air_step = p.wind.air().map(|&air| AeroStep {
+                    air,
+                    time: self.time + f64::from(dt) * f64::from(k),
+                    dt,
+                    displacement_per_newton: dt * dt / mass,
+                    parallel: true,
+                });
+                let phases = Phases {
+                    air: self.aero.as_mut().zip(air_step.as_ref()),
+                    self_contact: self.self_contact.as_mut().map(|phase| (phase, &self_step)),
+                    contact: contact.as_ref(),
+                };
+                self.last_passes = run_substep(self.solver.as_mut(), &substep, phases);
             }
             self.steps += 1;
             self.time += f64::from(p.dt);
@@ -366,7 +433,7 @@ impl Simulation {
         self.check_index(index)?;
         if self.fixed[index] != fixed {
             self.fixed[index] = fixed;
-            let weight = if fixed { 0.0 } else { 1.0 };
+            let weight = if fixed { 0.0 } else { self.material.weight[index] };
             self.inverse_mass[index] = weight;
             self.solver.set_inverse_mass(index, weight);
             if fixed {
@@ -429,13 +496,15 @@ impl Simulation {
             &self.positions,
             &self.previous,
             &self.fixed,
-            self.params.mass,
+            &self.material.mass,
             self.params.substep_dt(),
         )
     }
-    /// Gravitational potential energy of the free particles, joules.
+    /// Gravitational potential energy of the free particles, joules: −f_g·x
+    /// for the seed's force, −m_i g·x for an acceleration.
     pub fn potential_energy(&self) -> f64 {
-        metrics::potential_energy(&self.positions, &self.fixed, self.params.gravity)
+        let g = self.params.gravity_acceleration.unwrap_or(self.params.gravity / self.material.mean);
+        metrics::potential_energy(&self.positions, &self.fixed, &self.material.mass, g)
     }
 
     fn check_index(&self, index: usize) -> Result<(), SimError> {
@@ -460,6 +529,49 @@ impl Simulation {
         let tethers = self.tethers();
         self.solver.set_tethers(tethers);
     }
+}
+
+/// What the parameters and the mesh make of masses and stiffness.
+#[derive(Clone, Debug, PartialEq)]
+struct Derived {
+    /// m_i, kg.
+    mass: Vec<f32>,
+    /// m̄, kg.
+    mean: f32,
+    /// m̄ / m_i: the weight of each particle while free.
+    weight: Vec<f32>,
+    /// α of structural and of bend bars, m/N.
+    stretch_compliance: f32,
+    bend_compliance: f32,
+}
+
+impl Derived {
+    fn new(mesh: &ClothMesh, p: &SolverParams) -> Result<Self, ParamError> {
+        let n = mesh.particle_count();
+        let (mass, mean, weight) = match p.density {
+            None => (vec![p.mass; n], p.mass, vec![1.0; n]),
+            Some(sigma) => {
+                let mass = units::particle_masses(mesh, sigma)?;
+                let mean = (mass.iter().map(|&m| f64::from(m)).sum::<f64>() / n.max(1) as f64) as f32;
+                let weight = mass.iter().map(|&m| mean / m).collect();
+                (mass, mean, weight)
+            }
+        };
+        let stretch_compliance = match p.stretch_stiffness {
+            Some(k) => units::stretch_compliance(mesh, k)?.min(super::params::MAX_COMPLIANCE),
+            None => p.stretch_compliance,
+        };
+        let bend_compliance = match p.bend_stiffness {
+            Some(b) => units::bend_compliance(mesh, b)?.min(super::params::MAX_COMPLIANCE),
+            None => p.bend_compliance,
+        };
+        Ok(Self { mass, mean, weight, stretch_compliance, bend_compliance })
+    }
+}
+
+/// The air phase, when the wind is "air" (an error without triangles).
+fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived) -> Result<Option<Aerodynamics>, ParamError> {
+    p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass)).transpose()
 }
 
 /// The colliders placed for substep `k` of the step that starts at `time`;

@@ -6,9 +6,13 @@
 //! which order the phases run (after NvCloth's `iterateCloth`):
 //!
 //! ```text
+//! 0. air         (with the "air" wind) drag and lift on every triangle from
+//!                the air's velocity relative to last substep's motion
+//!                ([`super::aero`]): a displacement Δ_i per particle
 //! 1. integrate   forces, then equation 1 (or the Euler start, equation 2)
 //!                for every particle of non-zero inverse mass:
-//!                d ← (1 − δ) d + w h² f/m,  x ← x + d     (x_pred = x)
+//!                d ← (1 − δ) d + w h² f/m + h² g,  x ← x + d + w Δ
+//!                (x_pred = x + d: the air's push is a force settled into d)
 //! 2. relax       tethers, then `relaxations` Gauss–Seidel passes over the
 //!                bars (the seed's Figure 3, XPBD when compliant)
 //! 3. self-collide (when on) particles of the cloth kept a thickness apart
@@ -22,7 +26,8 @@
 //!
 //! A phase that a scene does not need is skipped here, not inside the
 //! solvers: no colliders, no collide phase; self-collision off, no
-//! self-collide phase. Friction is not a pass of its own: Coulomb's bound
+//! self-collide phase; no "air" wind, no air phase (no triangle loop).
+//! Friction is not a pass of its own: Coulomb's bound
 //! needs each contact's push and normal, so it is applied where the contact
 //! is resolved, particle by particle (as NvCloth does).
 //!
@@ -37,6 +42,7 @@ use std::fmt::Debug;
 
 use glam::Vec3;
 
+use super::aero::{AeroStep, Aerodynamics};
 use super::contact::ContactStep;
 use super::self_contact::{SelfContact, SelfContactStep};
 use super::tether::Tethers;
@@ -52,6 +58,9 @@ pub struct Substep<'a> {
     /// (h/n)² f / m: what the force adds to the displacement of a particle
     /// of weight 1 (a particle of weight w gets w times it).
     pub accel: Vec3,
+    /// (h/n)² g: what an acceleration (gravity given as `g`) adds to the
+    /// displacement of every particle of non-zero weight, whatever its mass.
+    pub gravity: Vec3,
     /// For the very first substep: v₀ and the displacement added to h v₀
     /// (zero for the seed's Euler start, ½ (h/n)² f/m for the second-order one).
     pub first: Option<(&'a [Vec3], Vec3)>,
@@ -75,6 +84,10 @@ pub trait Solver: Debug + Send + Sync {
     /// Phase 1: forces and integration (equation 1, or equation 2 on the
     /// first substep). Keeps x_pred for [`Solver::settle`].
     fn integrate(&mut self, s: &Substep);
+    /// After phase 1, with the air: x_i ← x_i + w_i Δ_i for every particle
+    /// of non-zero weight (`displacement` in scene order), a force's
+    /// displacement that [`Solver::settle`] carries into the velocity.
+    fn push(&mut self, displacement: &[Vec3]);
     /// Phase 2: tethers, then the relaxation passes. Returns the passes made.
     fn relax(&mut self, s: &Substep) -> u32;
     /// Phase 3: contact and friction with the colliders, for every particle
@@ -111,15 +124,31 @@ impl Clone for Box<dyn Solver> {
     }
 }
 
+/// The optional phases of one substep, each with what it needs; `None`
+/// skips a phase.
+#[derive(Default)]
+pub struct Phases<'a, 'b> {
+    /// The air phase, with the wind model "air".
+    pub air: Option<(&'a mut Aerodynamics, &'a AeroStep)>,
+    /// The self-collide phase, when self-collision is on.
+    pub self_contact: Option<(&'a mut SelfContact, &'a SelfContactStep)>,
+    /// The collide phase, when there are colliders.
+    pub contact: Option<&'a ContactStep<'b>>,
+}
+
 /// Runs one substep: the phases in their order, skipping what the scene
 /// does not need. Returns the relaxation passes made.
-pub fn run_substep(
-    solver: &mut dyn Solver,
-    s: &Substep,
-    self_contact: Option<(&mut SelfContact, &SelfContactStep)>,
-    contact: Option<&ContactStep>,
-) -> u32 {
+pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 {
+    let Phases { air, self_contact, contact } = phases;
+    // The Euler start (equation 2) ignores every force, the air's too.
+    let push = air.filter(|_| s.first.is_none()).map(|(phase, step)| {
+        solver.read(&mut phase.x, &mut phase.x_prev);
+        phase.compute(step)
+    });
     solver.integrate(s);
+    if let Some(push) = push {
+        solver.push(push);
+    }
     let passes = solver.relax(s);
     if let Some((phase, step)) = self_contact {
         solver.self_collide(phase, step);

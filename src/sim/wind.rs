@@ -1,4 +1,9 @@
-//! Wind, the seed's equation 4, and two simpler models.
+//! Wind: the seed's equation 4, a constant force, or moving air.
+//!
+//! The first three models are one force on every particle alike ("none",
+//! "seed", "constant"). [`Wind::Air`] is a velocity field instead: the force
+//! then depends on each triangle's orientation and motion and is computed by
+//! the aerodynamics phase ([`super::aero`]).
 //!
 //! The seed's wind is one force applied to every particle:
 //!
@@ -20,7 +25,7 @@ use super::params::{ParamError, check_force};
 /// Largest accepted magnitude of [`Wind::Seed`]'s `scale`.
 pub const MAX_WIND_SCALE: f32 = 1e4;
 
-/// The wind model: a force in newtons on every free particle.
+/// The wind model: a force in newtons on every free particle, or moving air.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "kebab-case")]
 pub enum Wind {
@@ -37,22 +42,83 @@ pub enum Wind {
         /// The force in newtons; finite components within ±1e9.
         force: Vec3,
     },
+    /// Moving air: drag and lift on every triangle ([`super::aero`]).
+    Air(Air),
+}
+
+/// Largest accepted mean air speed, m/s.
+pub const MAX_AIR_SPEED: f32 = 1000.0;
+
+/// Moving air: a mean velocity with smooth, deterministic turbulence, and
+/// the coefficients of drag and lift on the cloth's triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Air {
+    /// V: the mean wind velocity, m/s; finite, each component within ±1000.
+    /// Default (0, 0, 0) (still air, which still resists motion).
+    pub velocity: Vec3,
+    /// g_t: the turbulence's RMS speed per component as a share of |V|.
+    /// Dimensionless, range `0 ..= 10`, default 0 (steady).
+    pub gusts: f32,
+    /// ℓ = τ: the size of the turbulence's features, in metres and seconds.
+    /// Range `0.01 ..= 1000`, default 1.
+    pub gust_scale: f32,
+    /// ρ: the air's density, kg/m³. Range `0 ..= 1000`, default 1.2 (air at
+    /// 20 °C; water is 1000).
+    pub density: f32,
+    /// C_d: the drag coefficient of a flat plate face-on. Range `0 ..= 10`,
+    /// default 1.0 (a flat plate is 1.1–1.3; NvCloth's samples use 0.4–1).
+    pub drag: f32,
+    /// C_l: the lift coefficient. Range `0 ..= 10`, default 0.2.
+    pub lift: f32,
+}
+
+impl Default for Air {
+    fn default() -> Self {
+        Self { velocity: Vec3::ZERO, gusts: 0.0, gust_scale: 1.0, density: 1.2, drag: 1.0, lift: 0.2 }
+    }
+}
+
+impl Air {
+    /// Checks every number against its documented range.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let v = self.velocity;
+        if !(v.is_finite() && v.abs().max_element() <= MAX_AIR_SPEED) {
+            let value = format!("[{}, {}, {}]", v.x, v.y, v.z);
+            return Err(ParamError::new("wind.velocity", value, "m/s, finite components within ±1000"));
+        }
+        let checks: [(&'static str, f32, f32, f32, &'static str); 5] = [
+            ("wind.gusts", self.gusts, 0.0, 10.0, "0 <= gusts <= 10 (a share of the mean speed)"),
+            ("wind.gust_scale", self.gust_scale, 0.01, 1000.0, "metres and seconds, 0.01 <= gust_scale <= 1000"),
+            ("wind.density", self.density, 0.0, 1000.0, "kg/m³, 0 <= density <= 1000 (air is 1.2)"),
+            ("wind.drag", self.drag, 0.0, 10.0, "0 <= drag <= 10"),
+            ("wind.lift", self.lift, 0.0, 10.0, "0 <= lift <= 10"),
+        ];
+        for (name, value, low, high, allowed) in checks {
+            if !(low..=high).contains(&value) {
+                return Err(ParamError::new(name, value, allowed));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Wind {
-    /// The force at simulated time `time` (seconds since the start).
+    /// The force on every particle alike at simulated time `time` (seconds
+    /// since the start); zero for [`Wind::Air`], whose force is per triangle.
     pub fn force(&self, time: f64) -> Vec3 {
         match *self {
-            Wind::None => Vec3::ZERO,
+            Wind::None | Wind::Air(_) => Vec3::ZERO,
             Wind::Seed { scale } => seed_wind(time) * scale,
             Wind::Constant { force } => force,
         }
     }
 
-    /// True when the model never produces a force, so the solver can skip it.
+    /// True when the model never produces a force on every particle alike,
+    /// so the solver can skip it ([`Wind::Air`] acts per triangle instead).
     pub fn is_none(&self) -> bool {
         match *self {
-            Wind::None => true,
+            Wind::None | Wind::Air(_) => true,
             Wind::Seed { scale } => scale == 0.0,
             Wind::Constant { force } => force == Vec3::ZERO,
         }
@@ -70,6 +136,15 @@ impl Wind {
                 }
             }
             Wind::Constant { force } => check_force("wind.vector", force),
+            Wind::Air(air) => air.validate(),
+        }
+    }
+
+    /// The air, when the model is [`Wind::Air`].
+    pub fn air(&self) -> Option<&Air> {
+        match self {
+            Wind::Air(air) => Some(air),
+            _ => None,
         }
     }
 }

@@ -10,6 +10,7 @@
 //! - [`painter`]: drawing egui's output with egui-wgpu.
 
 pub mod command;
+mod material_controls;
 pub mod overlay;
 pub mod painter;
 pub mod panel;

@@ -5,7 +5,8 @@ use egui::{DragValue, Slider, SliderClamping, Ui};
 use glam::Vec3;
 
 use super::command::UiCommand;
-use crate::sim::{SolverKind, SolverParams, Start, Wind};
+use super::material_controls::material_controls;
+use crate::sim::{Air, SolverKind, SolverParams, Start, Wind};
 
 /// The solver's own values, for the "scene values" button.
 #[derive(Clone, Copy, Debug)]
@@ -54,13 +55,26 @@ pub fn solver_controls(
         .on_hover_text("Share of last step's motion removed each step (equation 1).");
     ui.add(slider(&mut edited.dt, 0.001..=0.1).logarithmic(true).suffix(" s").text("time step h"))
         .on_hover_text("Simulated seconds per step.");
-    ui.add(slider(&mut edited.mass, 1e-4..=10.0).logarithmic(true).suffix(" kg").text("mass m"))
-        .on_hover_text("Mass of every particle: forces are divided by it.");
-    vector_row(ui, "gravity (N)", &mut edited.gravity).on_hover_text(format!(
-        "A force on every particle (the seed's equation 3): {:.2} m/s² at this mass.",
-        edited.gravity.length() / edited.mass
-    ));
-    let weight = edited.gravity.length();
+    material_controls(ui, &mut edited);
+    if edited.density.is_none() {
+        ui.add(slider(&mut edited.mass, 1e-4..=10.0).logarithmic(true).suffix(" kg").text("mass m"))
+            .on_hover_text("Mass of every particle: forces are divided by it.");
+    }
+    match &mut edited.gravity_acceleration {
+        Some(g) => {
+            vector_row(ui, "g (m/s²)", g).on_hover_text("Gravity as an acceleration, the same for every particle.");
+        }
+        None => {
+            vector_row(ui, "gravity (N)", &mut edited.gravity).on_hover_text(format!(
+                "A force on every particle (the seed's equation 3): {:.2} m/s² at this mass.",
+                edited.gravity.length() / edited.mass
+            ));
+        }
+    }
+    let weight = match edited.gravity_acceleration {
+        Some(g) => g.length() * edited.mass,
+        None => edited.gravity.length(),
+    };
     wind_controls(ui, &mut edited.wind, weight);
     egui::CollapsingHeader::new("accuracy").default_open(false).show(ui, |ui| accuracy_controls(ui, &mut edited));
     egui::CollapsingHeader::new("contact").default_open(false).show(ui, |ui| contact_controls(ui, &mut edited));
@@ -144,7 +158,7 @@ fn small_values<'a>(value: &'a mut f32, max: f32, smallest: f64, zero: &'static 
 
 /// A slider over `range` that never clamps: values outside it, from the
 /// scene or typed in, are kept as they are (see [`solver_controls`]).
-fn slider<Num: egui::emath::Numeric>(value: &mut Num, range: std::ops::RangeInclusive<Num>) -> Slider<'_> {
+pub(super) fn slider<Num: egui::emath::Numeric>(value: &mut Num, range: std::ops::RangeInclusive<Num>) -> Slider<'_> {
     Slider::new(value, range).clamping(SliderClamping::Never)
 }
 
@@ -168,6 +182,7 @@ fn wind_controls(ui: &mut Ui, wind: &mut Wind, weight: f32) {
         Wind::None => "none",
         Wind::Seed { .. } => "seed's gusts",
         Wind::Constant { .. } => "constant",
+        Wind::Air(_) => "air",
     };
     let mut model = *wind;
     egui::ComboBox::from_label("wind").selected_text(name(wind)).show_ui(ui, |ui| {
@@ -180,7 +195,13 @@ fn wind_controls(ui: &mut Ui, wind: &mut Wind, weight: f32) {
             Wind::Constant { force } => force,
             _ => Vec3::new(0.5 * weight, 0.0, 0.0),
         };
-        for option in [Wind::None, Wind::Seed { scale: keep_scale }, Wind::Constant { force: keep_force }] {
+        let keep_air = match *wind {
+            Wind::Air(air) => air,
+            _ => Air { velocity: Vec3::new(5.0, 0.0, 0.0), gusts: 0.3, ..Air::default() },
+        };
+        let options =
+            [Wind::None, Wind::Seed { scale: keep_scale }, Wind::Constant { force: keep_force }, Wind::Air(keep_air)];
+        for option in options {
             let label = name(&option);
             ui.selectable_value(&mut model, option, label);
         }
@@ -194,6 +215,16 @@ fn wind_controls(ui: &mut Ui, wind: &mut Wind, weight: f32) {
         }
         Wind::Constant { force } => {
             vector_row(ui, "wind (N)", force);
+        }
+        Wind::Air(air) => {
+            vector_row(ui, "air (m/s)", &mut air.velocity)
+                .on_hover_text("The mean wind: drag and lift on every triangle from the air's relative velocity.");
+            ui.add(slider(&mut air.gusts, 0.0..=1.0).text("gusts"))
+                .on_hover_text("Turbulence: RMS speed as a share of the mean wind's.");
+            ui.add(slider(&mut air.gust_scale, 0.1..=10.0).logarithmic(true).suffix(" m, s").text("gust scale"))
+                .on_hover_text("Size of the gusts in metres, and their lifetime in seconds.");
+            ui.add(slider(&mut air.drag, 0.0..=2.0).text("drag C_d"));
+            ui.add(slider(&mut air.lift, 0.0..=1.0).text("lift C_l"));
         }
     }
 }

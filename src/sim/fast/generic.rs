@@ -114,15 +114,25 @@ impl GenericLayout {
 
 impl Solver for GenericLayout {
     fn integrate(&mut self, s: &Substep) {
-        let (keep, accel) = match s.first {
+        let (keep, accel, gravity) = match s.first {
             Some((v0, extra)) => {
                 self.set_initial_velocity(v0, s.dt, extra);
-                (1.0, [0.0; 3])
+                (1.0, [0.0; 3], [0.0; 3])
             }
-            None => (s.keep, s.accel.to_array()),
+            None => (s.keep, s.accel.to_array(), s.gravity.to_array()),
         };
         for ((p, d), q) in self.particles.iter_mut().zip(&mut self.displacement).zip(&mut self.predicted) {
-            *q = integrate(&mut p.position, d, p.weight, keep, accel);
+            *q = integrate(&mut p.position, d, p.weight, keep, accel, gravity);
+        }
+    }
+
+    fn push(&mut self, displacement: &[Vec3]) {
+        for (p, delta) in self.particles.iter_mut().zip(displacement) {
+            if p.weight > 0.0 {
+                for k in 0..3 {
+                    p.position[k] += p.weight * delta[k];
+                }
+            }
         }
     }
 

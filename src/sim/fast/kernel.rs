@@ -273,13 +273,21 @@ pub(crate) fn excess<T: Real>(violation: T, wa: T, wb: T, slack: T) -> T {
 }
 
 /// Equation 1 in displacement form for a particle of inverse mass w > 0:
-/// `d ← keep·d + w·accel`, `x ← x + d` (keep = 1 − δ, accel = h²f/m).
+/// `d ← keep·d + w·accel + gravity`, `x ← x + d` (keep = 1 − δ, accel =
+/// h²f/m, gravity = h²g, the same for every moving particle).
 /// Particles of weight 0 (fixed, padding) keep their bits. Returns the new
 /// x, the prediction relaxation starts from.
 #[inline(always)]
-pub(crate) fn integrate<T: Real>(x: &mut Point<T>, d: &mut Point<T>, w: T, keep: T, accel: Point<T>) -> Point<T> {
+pub(crate) fn integrate<T: Real>(
+    x: &mut Point<T>,
+    d: &mut Point<T>,
+    w: T,
+    keep: T,
+    accel: Point<T>,
+    gravity: Point<T>,
+) -> Point<T> {
     for k in 0..3 {
-        let nd = keep * d[k] + w * accel[k];
+        let nd = keep * d[k] + w * accel[k] + gravity[k];
         let nx = x[k] + nd;
         d[k] = T::if_moving(w, nd, d[k]);
         x[k] = T::if_moving(w, nx, x[k]);
@@ -431,13 +439,13 @@ mod tests {
     #[test]
     fn integration_leaves_fixed_particles_alone_and_scales_the_force_by_weight() {
         let (mut x, mut d) = ([-0.0f32, 1.0, 2.0], [0.0f32; 3]);
-        integrate(&mut x, &mut d, 0.0, 0.98, [1.0; 3]);
+        integrate(&mut x, &mut d, 0.0, 0.98, [1.0; 3], [0.5; 3]);
         assert_eq!(((-0.0f32).to_bits(), [1.0, 2.0], [0.0; 3]), (x[0].to_bits(), [x[1], x[2]], d));
-        integrate(&mut x, &mut d, 1.0, 0.98, [1.0; 3]);
+        integrate(&mut x, &mut d, 1.0, 0.98, [1.0; 3], [0.0; 3]);
         assert_eq!((x, d), ([1.0, 2.0, 3.0], [1.0; 3]));
         // Twice the inverse mass, twice the push of a force.
         let (mut x, mut d) = ([0.0f32; 3], [0.0f32; 3]);
-        integrate(&mut x, &mut d, 2.0, 1.0, [1.0; 3]);
+        integrate(&mut x, &mut d, 2.0, 1.0, [1.0; 3], [0.0; 3]);
         assert_eq!(x, [2.0; 3]);
     }
 

@@ -17,18 +17,33 @@ use crate::sim::tether::Tethers;
 
 impl Solver for GridLayout {
     fn integrate(&mut self, s: &Substep) {
-        let (keep, accel) = match s.first {
+        let (keep, accel, gravity) = match s.first {
             Some((v0, extra)) => {
                 self.set_initial_velocity(v0, s.dt, extra);
-                (1.0, [0.0; 3])
+                (1.0, [0.0; 3], [0.0; 3])
             }
-            None => (s.keep, s.accel.to_array()),
+            None => (s.keep, s.accel.to_array(), s.gravity.to_array()),
         };
         let parallel = self.parallel();
         for_each_tile(&mut self.tiles, parallel, |tile| {
-            integrate_tile(tile, keep, accel);
+            integrate_tile(tile, keep, accel, gravity);
             f32::NEG_INFINITY
         });
+    }
+
+    /// Scatters the scene-order displacements to the lanes, times each
+    /// particle's weight.
+    fn push(&mut self, displacement: &[Vec3]) {
+        for (loc, delta) in self.locations.iter().zip(displacement) {
+            let tile = &mut self.tiles[loc.tile as usize];
+            let (s, l) = (loc.slot as usize, loc.lane as usize);
+            let w = tile.weight[s].0[l];
+            if w > 0.0 {
+                for k in 0..3 {
+                    tile.position[s][k].0[l] += w * delta[k];
+                }
+            }
+        }
     }
 
     /// Tethers, then up to `relaxations` sweeps; when `tolerance > 0`, stops
@@ -238,11 +253,11 @@ fn all_finite(slots: &[Slot]) -> bool {
 }
 
 #[multiversion(targets("x86_64+avx2+fma"))]
-fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3]) {
-    let (keep, accel) = (F32x8::splat(keep), accel.map(F32x8::splat));
+fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3], gravity: [f32; 3]) {
+    let (keep, accel, gravity) = (F32x8::splat(keep), accel.map(F32x8::splat), gravity.map(F32x8::splat));
     let Tile { position, displacement, predicted, weight, .. } = tile;
     for (((x, d), q), w) in position.iter_mut().zip(displacement).zip(predicted).zip(weight.iter()) {
-        *q = integrate(x, d, *w, keep, accel);
+        *q = integrate(x, d, *w, keep, accel, gravity);
     }
 }
 

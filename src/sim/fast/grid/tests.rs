@@ -41,7 +41,7 @@ fn weights(mesh: &ClothMesh) -> Vec<f32> {
 
 /// Integrate, relax and settle: a substep without contact.
 fn step(layout: &mut GridLayout, s: &Substep) {
-    crate::sim::step::run_substep(layout, s, None, None);
+    crate::sim::step::run_substep(layout, s, crate::sim::step::Phases::default());
 }
 
 /// A plain substep: no force, no damping, rigid bars, `relaxations` passes.
@@ -50,6 +50,7 @@ fn substep(relaxations: u32) -> Substep<'static> {
         dt: 0.01,
         keep: 1.0,
         accel: Vec3::ZERO,
+        gravity: Vec3::ZERO,
         first: None,
         relaxations,
         tolerance: 0.0,
