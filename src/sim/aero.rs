@@ -34,8 +34,8 @@
 //! v_air(x, t) = V + g_t |V| N((x − V t)/ℓ + c t/τ)
 //! ```
 //!
-//! N is smooth value noise (a hashed lattice, quintic interpolation, two
-//! octaves; each component scaled to unit RMS), deterministic (the same
+//! N is smooth value noise (a hashed lattice, quintic interpolation, one
+//! octave; each component scaled to unit RMS), deterministic (the same
 //! scene gives the same run), carried along by the mean wind (Taylor's
 //! frozen turbulence: a gust travels down a flag at the wind's speed, so
 //! the flag ripples along its length) and changing on the time scale τ on
@@ -49,9 +49,9 @@ use super::params::ParamError;
 use super::self_contact::PARALLEL_PARTICLES;
 use super::wind::Air;
 
-/// RMS of one component of the two-octave noise before scaling, measured
+/// RMS of one component of the noise before scaling, measured
 /// by `noise_has_unit_rms_per_component` over 200 000 samples.
-const NOISE_RMS: f32 = 0.448;
+const NOISE_RMS: f32 = 0.401;
 /// The pattern's own drift through the noise, per τ (a fixed unit vector,
 /// not along any lattice axis).
 const DRIFT: Vec3 = Vec3::new(0.267, 0.534, 0.802);
@@ -154,7 +154,9 @@ impl Aerodynamics {
         let time = step.time as f32;
         {
             let field = |(v, x): (&mut Vec3, &Vec3)| *v = air_velocity(&air, *x, time);
-            if parallel {
+            if air.gusts == 0.0 {
+                self.air_velocity.fill(air.velocity);
+            } else if parallel {
                 self.air_velocity.par_iter_mut().zip(self.x.par_iter()).for_each(field);
             } else {
                 self.air_velocity.iter_mut().zip(self.x.iter()).for_each(field);
@@ -227,18 +229,19 @@ fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[Vec3], x_pr
     if air.lift == 0.0 || speed2 == 0.0 {
         return drag;
     }
+    // ½ρC_l A |u|² cos φ (n − cos φ û) = ½ρC_l A (|u| u·n n − (u·n)² u/|u|):
+    // perpendicular to u, of size ½ρC_l A |u|² |cos φ| sin φ.
     let speed = speed2.sqrt();
-    let cos = un / speed;
-    // n − cos φ û: perpendicular to u, length sin φ.
-    let across = n - u * (cos / speed);
-    let lift_size = (q * air.lift * speed2 * cos.abs() * across.length()).min(mass * speed / dt);
-    let lift_direction = (across * cos.signum()).normalize_or_zero();
-    drag + lift_direction * lift_size
+    let lift = (n * (speed * un) - u * (un * un / speed)) * (q * air.lift);
+    let cap = mass * speed / dt;
+    let size2 = lift.length_squared();
+    if size2 > cap * cap { drag + lift * (cap / size2.sqrt()) } else { drag + lift }
 }
 
-/// Two octaves of value noise, each component in about ±2.
+/// Value noise, each component in ±1 (one octave: a second at half the
+/// size cost as much again and the flag's own flutter gives the detail).
 fn noise(q: Vec3) -> Vec3 {
-    value_noise(q, 0) + 0.5 * value_noise(q * 2.03 + Vec3::new(17.1, 5.3, 11.7), 1)
+    value_noise(q, 0)
 }
 
 /// Value noise: hashed lattice values in [−1, 1]³, quintic interpolation

@@ -34,6 +34,10 @@
 //! (equations 3–5): f = f_g + f_w(t), with f_g = (0, −9.8, 0) N by default and
 //! f_w the seed's time-varying wind ([`wind`]). Gravity is a force, not an
 //! acceleration: a particle of m = 0.2 kg accelerates at 49 m/s².
+//! Beside the seed's way, gravity may be an acceleration g, particles may
+//! weigh an area density times their area ([`units`]), and the wind may be
+//! moving air, whose drag and lift act on each triangle by its orientation
+//! and motion ([`aero`]).
 //!
 //! **Relaxation.** Integration stretches and compresses the bars; relaxation
 //! restores them (the seed's Figure 3). One pass visits every bar and moves
