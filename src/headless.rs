@@ -19,6 +19,8 @@ pub struct RunSummary {
     pub bars: usize,
     /// Steps taken by this run.
     pub steps: u64,
+    /// The cloth's mass, kg: Σ m_i.
+    pub total_mass: f64,
     /// Relaxation passes per substep.
     pub relaxations: u32,
     /// Substeps per step.
@@ -41,6 +43,7 @@ impl std::fmt::Display for RunSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "particles            {}", self.particles)?;
         writeln!(f, "bars                 {}", self.bars)?;
+        writeln!(f, "mass                 {:.4} kg", self.total_mass)?;
         writeln!(f, "steps                {} ({:.3} s simulated)", self.steps, self.time)?;
         if self.substeps > 1 {
             writeln!(
@@ -121,6 +124,7 @@ pub fn run(
     Ok(RunSummary {
         particles: sim.positions().len(),
         bars: sim.movable_bar_count(),
+        total_mass: sim.masses().iter().map(|&m| f64::from(m)).sum(),
         steps,
         relaxations: sim.params().relaxations,
         substeps: sim.params().substeps,

@@ -88,11 +88,23 @@ struct SolverOverrides {
     /// Turn self-collision on (the cloth kept `thickness` from itself).
     #[arg(long)]
     self_collision: bool,
+    /// A fabric preset: cotton, silk, denim, leather, jersey or rubber
+    /// (density, stiffness, friction, thickness; gravity kept as an
+    /// acceleration). Applied before the other flags.
+    #[arg(long, value_parser = parse_material)]
+    material: Option<drape::sim::Material>,
 }
 
 impl SolverOverrides {
     /// The scene's parameters with these overrides applied.
     fn apply(&self, mut params: drape::sim::SolverParams) -> drape::sim::SolverParams {
+        if let Some(material) = self.material {
+            material.select(&mut params);
+        }
+        if self.mass.is_some() {
+            // A mass per particle replaces a mass per area.
+            params.density = None;
+        }
         params.relaxations = self.relaxations.unwrap_or(params.relaxations);
         params.dt = self.dt.unwrap_or(params.dt);
         params.damping = self.damping.unwrap_or(params.damping);
@@ -109,6 +121,13 @@ impl SolverOverrides {
         params.self_collision |= self.self_collision;
         params
     }
+}
+
+fn parse_material(s: &str) -> Result<drape::sim::Material, String> {
+    drape::sim::Material::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = drape::sim::Material::ALL.iter().map(|m| m.name()).collect();
+        format!("unknown material '{s}'; choose one of {}", names.join(", "))
+    })
 }
 
 fn parse_start(s: &str) -> Result<drape::sim::Start, String> {

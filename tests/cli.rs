@@ -208,6 +208,24 @@ fn bad_obj_and_bad_arguments_are_rejected() {
     let o = drape(&["run", "--dt=0"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("dt = 0 is not allowed"), "{}", text(&o.stderr));
+
+    let o = drape(&["run", "--material", "tweed"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("choose one of cotton, silk"), "{}", text(&o.stderr));
+}
+
+#[test]
+fn a_material_flag_makes_the_seed_cloth_silk() {
+    // The seed's 20 × 30 cloth of 0.5 m spacing in silk: 9.5 × 14.5 m at
+    // 0.06 kg/m² is 8.27 kg (the seed's 600 × 0.2 kg is 120 kg). Gravity
+    // stays 49 m/s² (the seed's 9.8 N on 0.2 kg), so the run is as stable.
+    let o = drape(&["run", "--material", "silk", "--steps", "20"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(out.contains("mass                 8.2650 kg"), "{out}");
+    // Without the flag, the seed's own 120 kg.
+    let o = drape(&["run", "--steps", "1"]);
+    assert!(text(&o.stdout).contains("mass                 120.0000 kg"), "{}", text(&o.stdout));
 }
 
 #[cfg(feature = "viewer")]

@@ -142,6 +142,20 @@ impl Material {
         }
     }
 
+    /// Switches `params` to this fabric, as the viewer's menu and
+    /// `--material` do: [`Self::apply`], and gravity given as the seed's
+    /// force per particle becomes the acceleration it gave (f_g/m), since
+    /// particles no longer weigh m.
+    pub fn select(self, params: &mut SolverParams) {
+        if params.gravity_acceleration.is_none() {
+            params.gravity_acceleration = Some(match params.density {
+                None => params.gravity / params.mass,
+                Some(_) => glam::Vec3::new(0.0, -9.81, 0.0),
+            });
+        }
+        self.apply(params);
+    }
+
     /// Sets the preset's density, stiffness, friction and thickness in
     /// `params`, and its drag and lift when the wind is "air".
     pub fn apply(self, params: &mut SolverParams) {
@@ -171,6 +185,16 @@ mod tests {
             assert_eq!(Material::from_name(m.name()), Some(m));
         }
         assert_eq!(Material::from_name("tweed"), None);
+    }
+
+    #[test]
+    fn selecting_a_fabric_keeps_the_acceleration_of_gravity() {
+        // The seed's 9.8 N on 0.2 kg is 49 m/s²; a fabric's particles weigh
+        // σ × area, so the force becomes that acceleration.
+        let mut params = SolverParams::default();
+        Material::Silk.select(&mut params);
+        assert_eq!(params.gravity_acceleration, Some(glam::Vec3::new(0.0, -49.0, 0.0)));
+        assert_eq!(params.density, Some(Material::Silk.properties().density));
     }
 
     #[test]

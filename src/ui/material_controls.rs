@@ -3,7 +3,6 @@
 //! cloth uses them.
 
 use egui::Ui;
-use glam::Vec3;
 
 use super::solver_controls::slider;
 use crate::sim::{Material, SolverParams};
@@ -43,14 +42,7 @@ pub(super) fn material_controls(ui: &mut Ui, p: &mut SolverParams) {
         }
     });
     match chosen {
-        Some(Some(m)) => {
-            // A mass per area needs gravity per mass: the seed's force per
-            // particle becomes the acceleration it gave.
-            if p.gravity_acceleration.is_none() {
-                p.gravity_acceleration = Some(if p.density.is_none() { p.gravity / p.mass } else { -9.81 * Vec3::Y });
-            }
-            m.apply(p);
-        }
+        Some(Some(m)) => m.select(p),
         Some(None) => {
             p.density = None;
             p.stretch_stiffness = None;
