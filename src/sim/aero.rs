@@ -153,13 +153,21 @@ impl Aerodynamics {
         let air = step.air;
         let time = step.time as f32;
         {
-            let field = |(v, x): (&mut Vec3, &Vec3)| *v = air_velocity(&air, *x, time);
-            if air.gusts == 0.0 {
+            // Chunks of particles in scene order, each with its own cell
+            // cache (neighbours mostly share a cell of the noise).
+            let field = |(v, x): (&mut [Vec3], &[Vec3])| {
+                let mut cell = Cell::default();
+                for (v, x) in v.iter_mut().zip(x) {
+                    *v = gusting(&air, *x, time, &mut cell);
+                }
+            };
+            const CHUNK: usize = 2048;
+            if air.gusts == 0.0 || air.velocity == Vec3::ZERO {
                 self.air_velocity.fill(air.velocity);
             } else if parallel {
-                self.air_velocity.par_iter_mut().zip(self.x.par_iter()).for_each(field);
+                self.air_velocity.par_chunks_mut(CHUNK).zip(self.x.par_chunks(CHUNK)).for_each(field);
             } else {
-                self.air_velocity.iter_mut().zip(self.x.iter()).for_each(field);
+                self.air_velocity.chunks_mut(CHUNK).zip(self.x.chunks(CHUNK)).for_each(field);
             }
         }
         {
@@ -199,13 +207,18 @@ impl Aerodynamics {
 
 /// v_air(x, t), m/s (module docs).
 pub fn air_velocity(air: &Air, x: Vec3, time: f32) -> Vec3 {
+    gusting(air, x, time, &mut Cell::default())
+}
+
+/// [`air_velocity`] reusing the lattice values of the cell last visited.
+fn gusting(air: &Air, x: Vec3, time: f32, cell: &mut Cell) -> Vec3 {
     let speed = air.velocity.length();
     if air.gusts == 0.0 || speed == 0.0 {
         return air.velocity;
     }
     let scale = air.gust_scale;
     let q = (x - air.velocity * time) / scale + DRIFT * (time / scale);
-    air.velocity + noise(q) * (air.gusts * speed / NOISE_RMS)
+    air.velocity + value_noise(q, cell) * (air.gusts * speed / NOISE_RMS)
 }
 
 /// Drag plus lift on the triangle with corners `t` (module docs), capped so
@@ -238,35 +251,47 @@ fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[Vec3], x_pr
     if size2 > cap * cap { drag + lift * (cap / size2.sqrt()) } else { drag + lift }
 }
 
-/// Value noise, each component in ±1 (one octave: a second at half the
-/// size cost as much again and the flag's own flutter gives the detail).
-fn noise(q: Vec3) -> Vec3 {
-    value_noise(q, 0)
+/// The lattice values at the eight corners of the noise cell last
+/// visited: gusts are far larger than the particle spacing, so neighbouring
+/// particles mostly share a cell and its hashes are computed once.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cell {
+    key: Option<[i32; 3]>,
+    corners: [Vec3; 8],
 }
 
-/// Value noise: hashed lattice values in [−1, 1]³, quintic interpolation
-/// (C² across cells, so the air's velocity and its gradient are smooth).
-fn value_noise(q: Vec3, octave: u32) -> Vec3 {
-    let cell = q.floor();
-    let f = q - cell;
+/// Value noise, each component in ±1: hashed lattice values in [−1, 1]³,
+/// quintic interpolation (C² across cells, so the air's velocity and its
+/// gradient are smooth). One octave: a second at half the size costs as
+/// much again, and the flag's own flutter gives the finer detail.
+fn value_noise(q: Vec3, cell: &mut Cell) -> Vec3 {
+    let floor = q.floor();
+    let f = q - floor;
     let fade = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
-    let (ix, iy, iz) = (cell.x as i32, cell.y as i32, cell.z as i32);
-    let corner = |dx: i32, dy: i32, dz: i32| lattice(ix + dx, iy + dy, iz + dz, octave);
+    let key = [floor.x as i32, floor.y as i32, floor.z as i32];
+    if cell.key != Some(key) {
+        let [ix, iy, iz] = key;
+        for (k, corner) in cell.corners.iter_mut().enumerate() {
+            let k = k as i32;
+            *corner = lattice(ix + (k & 1), iy + ((k >> 1) & 1), iz + (k >> 2));
+        }
+        cell.key = Some(key);
+    }
+    let c = &cell.corners;
     let lerp = |a: Vec3, b: Vec3, t: f32| a + (b - a) * t;
-    let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), fade.x);
-    let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), fade.x);
-    let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), fade.x);
-    let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), fade.x);
+    let x00 = lerp(c[0], c[1], fade.x);
+    let x10 = lerp(c[2], c[3], fade.x);
+    let x01 = lerp(c[4], c[5], fade.x);
+    let x11 = lerp(c[6], c[7], fade.x);
     lerp(lerp(x00, x10, fade.y), lerp(x01, x11, fade.y), fade.z)
 }
 
 /// Three values in [−1, 1] from a lattice point (a 32-bit integer hash,
 /// the finaliser of MurmurHash3, ten bits per value).
-fn lattice(x: i32, y: i32, z: i32, octave: u32) -> Vec3 {
+fn lattice(x: i32, y: i32, z: i32) -> Vec3 {
     let mut h = (x as u32).wrapping_mul(0x8da6_b343)
         ^ (y as u32).wrapping_mul(0xd816_3841)
-        ^ (z as u32).wrapping_mul(0xcb1a_b31f)
-        ^ octave.wrapping_mul(0x1656_67b1);
+        ^ (z as u32).wrapping_mul(0xcb1a_b31f);
     h ^= h >> 16;
     h = h.wrapping_mul(0x85eb_ca6b);
     h ^= h >> 13;
@@ -342,15 +367,22 @@ mod tests {
         let count = 200_000;
         for k in 0..count {
             let q = Vec3::new(k as f32 * 0.173, (k % 997) as f32 * 0.311, (k % 313) as f32 * 0.129);
-            let v = noise(q) / NOISE_RMS;
+            let v = value_noise(q, &mut Cell::default()) / NOISE_RMS;
             sum += v * v;
         }
         let rms = (sum / count as f32).map(f32::sqrt);
         assert!((rms - Vec3::ONE).abs().max_element() < 0.08, "{rms}");
         // Smooth: a step of 1e-3 cells changes it by far less than its size.
         let q = Vec3::new(3.3, -1.7, 8.2);
+        let noise = |q: Vec3| value_noise(q, &mut Cell::default());
         assert!((noise(q) - noise(q + Vec3::splat(1e-3))).length() < 0.02);
         assert_eq!(noise(q), noise(q));
+        // The cell cache gives the same values as a fresh evaluation.
+        let mut cell = Cell::default();
+        for k in 0..100 {
+            let p = q + Vec3::new(k as f32 * 0.031, 0.0, k as f32 * 0.017);
+            assert_eq!(value_noise(p, &mut cell), noise(p));
+        }
     }
 
     #[test]
