@@ -85,7 +85,8 @@ pub struct Aerodynamics {
     pub x: Vec<Vec3>,
     /// Positions one substep ago, scene order; filled with `x`.
     pub x_prev: Vec<Vec3>,
-    air_velocity: Vec<Vec3>,
+    /// u_i = v_air(x_i) − v_i per particle, m/s.
+    relative: Vec<Vec3>,
     /// A third of each triangle's force, N.
     third_force: Vec<Vec3>,
     push: Vec<Vec3>,
@@ -138,7 +139,7 @@ impl Aerodynamics {
             triangle_mass,
             x: vec![Vec3::ZERO; n],
             x_prev: vec![Vec3::ZERO; n],
-            air_velocity: vec![Vec3::ZERO; n],
+            relative: vec![Vec3::ZERO; n],
             third_force: vec![Vec3::ZERO; triangles.len()],
             push: vec![Vec3::ZERO; n],
             triangles,
@@ -153,27 +154,30 @@ impl Aerodynamics {
         let air = step.air;
         let time = step.time as f32;
         {
-            // Chunks of particles in scene order, each with its own cell
-            // cache (neighbours mostly share a cell of the noise).
-            let field = |(v, x): (&mut [Vec3], &[Vec3])| {
+            // Per particle, the air's velocity relative to it,
+            // v_air(x) − (x − x_prev)/(h/n), so the triangles read one
+            // vector per corner. Chunks in scene order, each with its own
+            // cell cache (neighbours mostly share a cell of the noise).
+            let dt = step.dt;
+            let field = |((u, x), x_prev): ((&mut [Vec3], &[Vec3]), &[Vec3])| {
                 let mut cell = Cell::default();
-                for (v, x) in v.iter_mut().zip(x) {
-                    *v = gusting(&air, *x, time, &mut cell);
+                for ((u, x), x_prev) in u.iter_mut().zip(x).zip(x_prev) {
+                    *u = gusting(&air, *x, time, &mut cell) - (*x - *x_prev) / dt;
                 }
             };
             const CHUNK: usize = 2048;
-            if air.gusts == 0.0 || air.velocity == Vec3::ZERO {
-                self.air_velocity.fill(air.velocity);
-            } else if parallel {
-                self.air_velocity.par_chunks_mut(CHUNK).zip(self.x.par_chunks(CHUNK)).for_each(field);
+            if parallel {
+                let x = self.x.par_chunks(CHUNK).zip(self.x_prev.par_chunks(CHUNK));
+                self.relative.par_chunks_mut(CHUNK).zip(x).map(|(u, (x, p))| ((u, x), p)).for_each(field);
             } else {
-                self.air_velocity.chunks_mut(CHUNK).zip(self.x.chunks(CHUNK)).for_each(field);
+                let x = self.x.chunks(CHUNK).zip(self.x_prev.chunks(CHUNK));
+                self.relative.chunks_mut(CHUNK).zip(x).map(|(u, (x, p))| ((u, x), p)).for_each(field);
             }
         }
         {
-            let (x, x_prev, v_air) = (&self.x, &self.x_prev, &self.air_velocity);
+            let (x, relative) = (&self.x, &self.relative);
             let per_triangle = |(f, (t, &m)): (&mut Vec3, (&[u32; 3], &f32))| {
-                *f = triangle_force(&air, step.dt, m, t.map(|i| i as usize), x, x_prev, v_air) / 3.0;
+                *f = triangle_force(&air, step.dt, m, t.map(|i| i as usize), x, relative) / 3.0;
             };
             let triangles = self.triangles.iter().zip(self.triangle_mass.iter());
             if parallel {
@@ -223,7 +227,7 @@ fn gusting(air: &Air, x: Vec3, time: f32, cell: &mut Cell) -> Vec3 {
 
 /// Drag plus lift on the triangle with corners `t` (module docs), capped so
 /// that it cannot reverse the relative motion in one substep.
-fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[Vec3], x_prev: &[Vec3], v_air: &[Vec3]) -> Vec3 {
+fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[Vec3], relative: &[Vec3]) -> Vec3 {
     let [a, b, c] = t;
     let normal2 = (x[b] - x[a]).cross(x[c] - x[a]);
     let twice_area = normal2.length();
@@ -232,8 +236,7 @@ fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[Vec3], x_pr
     }
     let n = normal2 / twice_area;
     let area = 0.5 * twice_area;
-    let v_triangle = (x[a] - x_prev[a] + x[b] - x_prev[b] + x[c] - x_prev[c]) / (3.0 * dt);
-    let u = (v_air[a] + v_air[b] + v_air[c]) / 3.0 - v_triangle;
+    let u = (relative[a] + relative[b] + relative[c]) / 3.0;
     let un = u.dot(n);
     let q = 0.5 * air.density * area;
     let drag_cap = mass * un.abs() / dt;
@@ -313,7 +316,7 @@ mod tests {
     fn force_on(air: &Air, corners: [Vec3; 3]) -> Vec3 {
         let x = corners.to_vec();
         let v_air: Vec<Vec3> = x.iter().map(|&p| air_velocity(air, p, 0.0)).collect();
-        triangle_force(air, 0.01, 1.0, [0, 1, 2], &x, &x, &v_air)
+        triangle_force(air, 0.01, 1.0, [0, 1, 2], &x, &v_air)
     }
 
     #[test]
@@ -357,7 +360,7 @@ mod tests {
         let a = air();
         let x = vec![Vec3::ZERO, Vec3::Y, Vec3::Z];
         let v_air = vec![a.velocity; 3];
-        let f = triangle_force(&a, 0.01, 0.001, [0, 1, 2], &x, &x, &v_air);
+        let f = triangle_force(&a, 0.01, 0.001, [0, 1, 2], &x, &v_air);
         assert!((f.x * 0.01 / 0.001 - 8.0).abs() < 1e-3, "{f}");
     }
 
