@@ -9,7 +9,9 @@ use serde::{Deserialize, Serialize};
 
 use super::colliders::{self, ColliderTable};
 use super::{CameraHint, Origin, Scene, SceneErrorKind, bundled};
-use crate::sim::{Air, ClothMesh, Grid, GridPlane, Material, Pins, SolverKind, SolverParams, Start, Wind};
+use crate::sim::{
+    Air, ClothMesh, Grid, GridPlane, Material, ParamError, Pins, SolverKind, SolverParams, Start, Wind, units,
+};
 
 /// A scene file as written. See the README for every key.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -283,7 +285,7 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
             ));
         }
     };
-    check_surface(&params, &mesh)?;
+    units::check_surface(&params, &mesh).map_err(param_error)?;
     let read = |path: &str| -> Result<(Vec<Vec3>, Vec<[u32; 3]>), SceneErrorKind> {
         let (display, text) = obj_text(path, origin)?;
         parse_obj(&text).map_err(|message| SceneErrorKind::Obj { path: display, message })
@@ -424,34 +426,15 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         air.drag = w.drag.unwrap_or(air.drag);
         air.lift = w.lift.unwrap_or(air.lift);
     }
-    params.validate().map_err(|e| {
-        let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };
-        invalid(&key, format!("{} is not allowed: {}", e.value, e.allowed))
-    })?;
+    params.validate().map_err(param_error)?;
     Ok(params)
 }
 
-/// Refuses what needs triangles on a mesh without them (an adjacency list).
-fn check_surface(params: &SolverParams, mesh: &ClothMesh) -> Result<(), SceneErrorKind> {
-    if !mesh.triangles().is_empty() {
-        return Ok(());
-    }
-    let needs = [
-        ("wind.model", params.wind.air().is_some(), "model = \"air\" pushes on triangles"),
-        ("solver.density", params.density.is_some(), "a density is a mass per area"),
-        ("solver.stretch_stiffness", params.stretch_stiffness.is_some(), "a stiffness in N/m is per width of cloth"),
-        ("solver.bend_stiffness", params.bend_stiffness.is_some(), "a bend stiffness is per width of cloth"),
-    ];
-    match needs.into_iter().find(|n| n.1) {
-        Some((key, _, why)) => Err(invalid(
-            key,
-            format!(
-                "{why}, and this mesh has none: a [mesh] adjacency list has bars but no triangles (use a [grid] or \
-                 an [obj], or mass, compliance and the \"seed\" or \"constant\" wind)"
-            ),
-        )),
-        None => Ok(()),
-    }
+/// A parameter error as a scene error: `wind.*` names are keys already,
+/// the others live in `[solver]`.
+fn param_error(e: ParamError) -> SceneErrorKind {
+    let key = if e.name.starts_with("wind.") { e.name.to_string() } else { format!("solver.{}", e.name) };
+    invalid(&key, format!("{} is not allowed: {}", e.value, e.allowed))
 }
 
 fn grid_mesh(g: &GridTable) -> Result<ClothMesh, SceneErrorKind> {

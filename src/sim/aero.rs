@@ -45,8 +45,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::mesh::ClothMesh;
-use super::params::ParamError;
 use super::self_contact::PARALLEL_PARTICLES;
+use super::units;
 use super::wind::Air;
 
 /// RMS of one component of the noise before scaling, measured
@@ -93,18 +93,10 @@ pub struct Aerodynamics {
 }
 
 impl Aerodynamics {
-    /// The phase for `mesh` with these particle masses (kg); an error when
-    /// the mesh has no triangles, which the air needs.
-    pub fn new(mesh: &ClothMesh, masses: &[f32]) -> Result<Self, ParamError> {
+    /// The phase for `mesh` with these particle masses (kg). A mesh without
+    /// triangles feels no air (it is refused before: [`units::check_surface`]).
+    pub fn new(mesh: &ClothMesh, masses: &[f32]) -> Self {
         let triangles = mesh.triangles().to_vec();
-        if triangles.is_empty() {
-            return Err(ParamError::new(
-                "wind.model",
-                "\"air\"",
-                "only on a mesh with triangles (a [grid] or an [obj]); a [mesh] adjacency list has no surface for \
-                 the air to push on (use \"seed\" or \"constant\")",
-            ));
-        }
         let n = mesh.particle_count();
         let mut counts = vec![0u32; n + 1];
         for t in &triangles {
@@ -124,16 +116,15 @@ impl Aerodynamics {
                 fill[i as usize] += 1;
             }
         }
-        let areas = super::units::vertex_areas(mesh.positions(), &triangles);
+        let areas = units::vertex_areas(mesh.positions(), &triangles);
         let triangle_mass = triangles
             .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| mesh.positions()[i as usize]);
-                let third = (b - a).cross(c - a).length() / 6.0;
+            .map(|&t| {
+                let third = units::triangle_area(mesh.positions(), t) / 3.0;
                 t.iter().map(|&i| masses[i as usize] * third / areas[i as usize].max(f32::MIN_POSITIVE)).sum()
             })
             .collect();
-        Ok(Self {
+        Self {
             offsets,
             incident,
             triangle_mass,
@@ -143,7 +134,7 @@ impl Aerodynamics {
             third_force: vec![Vec3::ZERO; triangles.len()],
             push: vec![Vec3::ZERO; n],
             triangles,
-        })
+        }
     }
 
     /// The displacement (h/n)² F_i / m̄ of every particle (scene order) from
@@ -201,11 +192,6 @@ impl Aerodynamics {
             }
         }
         &self.push
-    }
-
-    /// The total force of the last [`Self::compute`] on the cloth, N.
-    pub fn total_force(&self) -> Vec3 {
-        self.third_force.iter().sum::<Vec3>() * 3.0
     }
 }
 

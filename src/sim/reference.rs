@@ -118,8 +118,7 @@ impl Solver for ReferenceSolver {
                 // Equation 2: x₁ = x₀ + h v₀ (+ ½h²f/m for the second-order start).
                 Some((v0, extra)) => x + s.dt * v0[i] + extra * w,
                 // Equation 1: x_{i+1} = x_i + (1 − δ)(x_i − x_{i−1}) + h²/m f.
-                None if s.gravity == Vec3::ZERO => x + s.keep * (x - self.previous[i]) + s.accel * w,
-                // With g, an acceleration: + h²g whatever the particle's mass.
+                // (+ h²g with g, an acceleration: whatever the particle's mass.)
                 None => x + s.keep * (x - self.previous[i]) + s.accel * w + s.gravity,
             };
             self.previous[i] = x;

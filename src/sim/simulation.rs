@@ -125,8 +125,9 @@ impl Simulation {
     ) -> Result<Self, SimError> {
         params.validate()?;
         let mesh = mesh.into();
+        units::check_surface(&params, &mesh)?;
         let material = Derived::new(&mesh, &params)?;
-        let aero = aerodynamics(&mesh, &params, &material)?;
+        let aero = aerodynamics(&mesh, &params, &material);
         let fixed = mesh.fixed().to_vec();
         let inverse_mass: Vec<f32> =
             fixed.iter().zip(&material.weight).map(|(&f, &w)| if f { 0.0 } else { w }).collect();
@@ -185,11 +186,12 @@ impl Simulation {
     /// density rewrites every free particle's weight (no rebuild).
     pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
         params.validate()?;
+        units::check_surface(&params, &self.mesh)?;
         let material = Derived::new(&self.mesh, &params)?;
         let aero = if params.wind.air().is_some() == self.aero.is_some() && material.mass == self.material.mass {
             self.aero.take()
         } else {
-            aerodynamics(&self.mesh, &params, &material)?
+            aerodynamics(&self.mesh, &params, &material)
         };
         self.aero = aero;
         if material.weight != self.material.weight {
@@ -259,11 +261,6 @@ impl Simulation {
     /// own, or those derived from `stretch_stiffness` and `bend_stiffness`.
     pub fn compliances(&self) -> (f32, f32) {
         (self.material.stretch_compliance, self.material.bend_compliance)
-    }
-    /// The air's total force on the cloth in the last substep, N (zero
-    /// without the "air" wind).
-    pub fn air_force(&self) -> Vec3 {
-        self.aero.as_ref().map_or(Vec3::ZERO, Aerodynamics::total_force)
     }
     /// Every bar of the mesh (the solvers visit each; one between two fixed
     /// particles moves nothing).
@@ -569,9 +566,10 @@ impl Derived {
     }
 }
 
-/// The air phase, when the wind is "air" (an error without triangles).
-fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived) -> Result<Option<Aerodynamics>, ParamError> {
-    p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass)).transpose()
+/// The air phase, when the wind is "air" (the mesh has triangles:
+/// [`units::check_surface`]).
+fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived) -> Option<Aerodynamics> {
+    p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass))
 }
 
 /// The colliders placed for substep `k` of the step that starts at `time`;

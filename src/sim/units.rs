@@ -66,30 +66,75 @@
 use glam::Vec3;
 
 use super::mesh::{BarKind, ClothMesh};
-use super::params::ParamError;
+use super::params::{ParamError, SolverParams};
 
 /// κ₀: the curvature at which a bend bar's energy equals the sheet's, 1/m
 /// (a fold of radius 2 cm).
 pub const REFERENCE_CURVATURE: f32 = 50.0;
 
+/// The area of triangle `t`, m².
+pub fn triangle_area(positions: &[Vec3], t: [u32; 3]) -> f32 {
+    let [a, b, c] = t.map(|i| positions[i as usize]);
+    0.5 * (b - a).cross(c - a).length()
+}
+
 /// Each particle's share of the cloth's area, m²: a third of the area of
 /// every triangle it is a corner of (a vertex in no triangle: 0).
 pub fn vertex_areas(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<f32> {
     let mut areas = vec![0.0f32; positions.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let third = (b - a).cross(c - a).length() / 6.0;
-        for &i in t {
+    for &t in triangles {
+        let third = triangle_area(positions, t) / 3.0;
+        for i in t {
             areas[i as usize] += third;
         }
     }
     areas
 }
 
+/// Refuses what needs triangles on a mesh that has none (a `[mesh]`
+/// adjacency list): the "air" wind, a density, a stretch or bend
+/// stiffness. The error names the parameter as `SolverParams::validate`
+/// does.
+pub fn check_surface(params: &SolverParams, mesh: &ClothMesh) -> Result<(), ParamError> {
+    if !mesh.triangles().is_empty() {
+        return Ok(());
+    }
+    let checks: [(&'static str, Option<String>, &'static str); 4] = [
+        (
+            "wind.model",
+            params.wind.air().map(|_| "\"air\"".to_string()),
+            "the air pushes on triangles and this mesh has no triangles (a [mesh] adjacency list has bars only): \
+             use a [grid] or an [obj], or the \"seed\" or \"constant\" wind",
+        ),
+        (
+            "density",
+            params.density.map(|v| v.to_string()),
+            "a density is a mass per area and this mesh has no triangles (a [mesh] adjacency list has bars only): \
+             use a [grid] or an [obj], or mass",
+        ),
+        (
+            "stretch_stiffness",
+            params.stretch_stiffness.map(|v| v.to_string()),
+            "a stiffness in N/m is per width of cloth and this mesh has no triangles (a [mesh] adjacency list has \
+             bars only): use a [grid] or an [obj], or stretch_compliance",
+        ),
+        (
+            "bend_stiffness",
+            params.bend_stiffness.map(|v| v.to_string()),
+            "a bend stiffness is per width of cloth and this mesh has no triangles (a [mesh] adjacency list has \
+             bars only): use a [grid] or an [obj], or bend_compliance",
+        ),
+    ];
+    match checks.into_iter().find_map(|(name, value, allowed)| value.map(|v| (name, v, allowed))) {
+        Some((name, value, allowed)) => Err(ParamError::new(name, value, allowed)),
+        None => Ok(()),
+    }
+}
+
 /// The cloth's rest area A, m²: the sum of its triangles' areas; an error
 /// naming `key` when the mesh has none (an adjacency list has no area).
 pub fn rest_area(mesh: &ClothMesh, key: &'static str, value: f32) -> Result<f32, ParamError> {
-    let area: f64 = vertex_areas(mesh.positions(), mesh.triangles()).iter().map(|&a| f64::from(a)).sum();
+    let area: f64 = mesh.triangles().iter().map(|&t| f64::from(triangle_area(mesh.positions(), t))).sum();
     if mesh.triangles().is_empty() || area.is_nan() || area <= 0.0 {
         return Err(ParamError::new(
             key,

@@ -34,13 +34,14 @@ impl Solver for GridLayout {
     /// Scatters the scene-order displacements to the lanes, times each
     /// particle's weight.
     fn push(&mut self, displacement: &[Vec3]) {
-        for (loc, delta) in self.locations.iter().zip(displacement) {
-            let tile = &mut self.tiles[loc.tile as usize];
-            let (s, l) = (loc.slot as usize, loc.lane as usize);
-            let w = tile.weight[s].0[l];
+        for (i, delta) in displacement.iter().enumerate() {
+            let loc = self.locations[i];
+            let l = loc.lane as usize;
+            let (p, _, w) = self.cell_mut(loc);
+            let w = w.0[l];
             if w > 0.0 {
                 for k in 0..3 {
-                    tile.position[s][k].0[l] += w * delta[k];
+                    p[k].0[l] += w * delta[k];
                 }
             }
         }
