@@ -145,7 +145,10 @@ impl Material {
     /// Switches `params` to this fabric, as the viewer's menu and
     /// `--material` do: [`Self::apply`], and gravity given as the seed's
     /// force per particle becomes the acceleration it gave (f_g/m), since
-    /// particles no longer weigh m.
+    /// particles no longer weigh m. A contact thickness larger than the
+    /// fabric's is kept: contact is per particle, so a scene sizes it to its
+    /// particle spacing (a 4 cm grid over a 0.3 m ball needs at least the
+    /// 0.7 mm its flat triangles cut into the ball; silk is 0.15 mm thick).
     pub fn select(self, params: &mut SolverParams) {
         if params.gravity_acceleration.is_none() {
             params.gravity_acceleration = Some(match params.density {
@@ -153,7 +156,9 @@ impl Material {
                 Some(_) => glam::Vec3::new(0.0, -9.81, 0.0),
             });
         }
+        let thickness = params.thickness;
         self.apply(params);
+        params.thickness = params.thickness.max(thickness);
     }
 
     /// Sets the preset's density, stiffness, friction and thickness in
@@ -195,6 +200,18 @@ mod tests {
         Material::Silk.select(&mut params);
         assert_eq!(params.gravity_acceleration, Some(glam::Vec3::new(0.0, -49.0, 0.0)));
         assert_eq!(params.density, Some(Material::Silk.properties().density));
+    }
+
+    #[test]
+    fn selecting_a_fabric_keeps_a_thicker_contact_distance() {
+        // drape-denim's 8 mm (sized to its 4 cm spacing) stays; a scene with
+        // a thinner one gets the fabric's 0.15 mm.
+        let mut params = SolverParams { thickness: 0.008, ..SolverParams::default() };
+        Material::Silk.select(&mut params);
+        assert_eq!(params.thickness, 0.008);
+        let mut params = SolverParams { thickness: 0.0, ..SolverParams::default() };
+        Material::Silk.select(&mut params);
+        assert_eq!(params.thickness, Material::Silk.properties().thickness);
     }
 
     #[test]
