@@ -35,6 +35,14 @@ pub struct RunSummary {
     pub time: f64,
     /// Strain at the end.
     pub strain: Strain,
+    /// Strain of the edges alone at the end (a grid's horizontal and
+    /// vertical bars: the cloth's stretch along its threads).
+    pub edge_strain: Strain,
+    /// The edges' max strain over the run's steps: its mean over the steps
+    /// (typical) and its largest (worst).
+    pub edge_strain_over_run: (f64, f32),
+    /// With inextensible edges: the Newton iterations of the last substep.
+    pub newton: Option<u32>,
     /// Kinetic energy of the free particles at the end, joules.
     pub kinetic_energy: f64,
 }
@@ -58,6 +66,15 @@ impl std::fmt::Display for RunSummary {
         writeln!(f, "bar projections/s    {:.3e}", self.projections_per_second)?;
         writeln!(f, "max strain           {:.4e}", self.strain.max)?;
         writeln!(f, "RMS strain           {:.4e}", self.strain.rms)?;
+        writeln!(f, "edge max strain      {:.4e}", self.edge_strain.max)?;
+        writeln!(
+            f,
+            "edge max strain, run {:.4e} typical, {:.4e} worst",
+            self.edge_strain_over_run.0, self.edge_strain_over_run.1
+        )?;
+        if let Some(iterations) = self.newton {
+            writeln!(f, "newton (last step)   {iterations} iterations (inextensible)")?;
+        }
         write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)
     }
 }
@@ -106,11 +123,16 @@ pub fn run(
     }
     let mut stepping = Duration::ZERO;
     let mut done = 0;
+    let edges: Vec<crate::sim::Bar> = sim.bars().iter().filter(|b| sim.mesh().is_edge(b)).copied().collect();
+    let mut history = crate::sim::StrainHistory::default();
     while done < steps {
         let n = chunk.min(steps - done);
-        let start = Instant::now();
-        sim.advance(n)?;
-        stepping += start.elapsed();
+        for _ in 0..n {
+            let start = Instant::now();
+            sim.advance(1)?;
+            stepping += start.elapsed();
+            history.record(crate::sim::metrics::strain(sim.positions(), &edges, sim.fixed()));
+        }
         done += n;
         if let Some((w, every)) = trace.as_mut()
             && done % (*every).max(1) == 0
@@ -133,6 +155,9 @@ pub fn run(
         projections_per_second: if seconds > 0.0 { projections / seconds } else { 0.0 },
         time: sim.time(),
         strain: sim.strain(),
+        edge_strain: sim.edge_strain(),
+        edge_strain_over_run: (history.mean_max(), history.worst_max),
+        newton: sim.last_projection().map(|r| r.iterations),
         kinetic_energy: sim.kinetic_energy(),
     })
 }

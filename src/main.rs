@@ -88,6 +88,20 @@ struct SolverOverrides {
     /// Turn self-collision on (the cloth kept `thickness` from itself).
     #[arg(long)]
     self_collision: bool,
+    /// Inextensible edges: a global Newton projection after the passes
+    /// puts every edge back to its rest length each substep.
+    #[arg(long)]
+    inextensible: bool,
+    /// With --inextensible: the most Newton iterations per substep (1–100).
+    #[arg(long)]
+    newton_iterations: Option<u32>,
+    /// With --inextensible: the edge strain that ends the iterations (0–1).
+    #[arg(long)]
+    newton_tolerance: Option<f32>,
+    /// With --inextensible: Gauss–Seidel passes over the edges after each
+    /// Newton iteration (0–1000).
+    #[arg(long)]
+    newton_smoothing: Option<u32>,
     /// A fabric preset: cotton, silk, denim, leather, jersey or rubber
     /// (density, stiffness, friction, thickness; gravity kept as an
     /// acceleration). Applied before the other flags.
@@ -119,6 +133,10 @@ impl SolverOverrides {
         params.thickness = self.thickness.unwrap_or(params.thickness);
         params.friction = self.friction.unwrap_or(params.friction);
         params.self_collision |= self.self_collision;
+        params.inextensible |= self.inextensible;
+        params.newton_iterations = self.newton_iterations.unwrap_or(params.newton_iterations);
+        params.newton_tolerance = self.newton_tolerance.unwrap_or(params.newton_tolerance);
+        params.newton_smoothing = self.newton_smoothing.unwrap_or(params.newton_smoothing);
         params
     }
 }

@@ -19,6 +19,7 @@ macro_rules! scene {
 /// Every bundled scene, the seed's first.
 pub const BUNDLED: &[BundledScene] = &[
     scene!("seed"),
+    scene!("seed-inextensible"),
     scene!("flag"),
     scene!("flag-seed"),
     scene!("hammock"),

@@ -89,6 +89,14 @@ pub struct SolverTable {
     pub friction: Option<f32>,
     /// Keep the cloth from passing through itself.
     pub self_collision: bool,
+    /// Put every edge back to its rest length each substep (global Newton).
+    pub inextensible: bool,
+    /// Most Newton iterations per substep (default 4).
+    pub newton_iterations: u32,
+    /// Edge strain that ends the iterations (default 0.001).
+    pub newton_tolerance: f32,
+    /// Edge passes after each Newton iteration (default 32).
+    pub newton_smoothing: u32,
 }
 
 impl Default for SolverTable {
@@ -115,6 +123,10 @@ impl Default for SolverTable {
             thickness: None,
             friction: None,
             self_collision: p.self_collision,
+            inextensible: p.inextensible,
+            newton_iterations: p.newton_iterations,
+            newton_tolerance: p.newton_tolerance,
+            newton_smoothing: p.newton_smoothing,
         }
     }
 }
@@ -390,6 +402,10 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         gravity_acceleration: s.g.map(vec3),
         stretch_stiffness: None,
         bend_stiffness: None,
+        inextensible: s.inextensible,
+        newton_iterations: s.newton_iterations,
+        newton_tolerance: s.newton_tolerance,
+        newton_smoothing: s.newton_smoothing,
     };
     if let Some(table) = &file.material {
         let Some(material) = Material::from_name(&table.preset) else {

@@ -76,6 +76,8 @@ pub mod collider;
 pub mod contact;
 pub mod exact;
 pub mod fast;
+pub mod hold;
+pub mod inextensible;
 pub mod material;
 pub mod mesh;
 pub mod metrics;

@@ -161,7 +161,33 @@ pub struct SolverParams {
     /// `bend_compliance`. Needs a mesh with triangles. Range `1e-12 ..= 1e3`,
     /// default `None`.
     pub bend_stiffness: Option<f32>,
+    /// Inextensible edges ([`super::inextensible`]): after the relaxation
+    /// passes, every substep puts all the edges (a grid's horizontal and
+    /// vertical bars, a triangle mesh's edges) back to their rest lengths
+    /// at once with a global Newton solve (Goldenthal et al. 2007), so the
+    /// cloth stretches as little as `newton_tolerance` allows whatever the
+    /// number of passes. The passes still hold the diagonals and bend bars.
+    /// Default false (the seed's relaxation alone).
+    pub inextensible: bool,
+    /// With `inextensible`: the most Newton iterations per substep. Range
+    /// `1 ..= 100`, default 4; each costs one sparse triangular solve, and a
+    /// fresh factorisation when the last one stops converging fast.
+    pub newton_iterations: u32,
+    /// With `inextensible`: the iterations stop once every edge is within
+    /// this relative strain of its rest length. Dimensionless, range
+    /// `0 < newton_tolerance < 1`, default 0.001 (0.1 %).
+    pub newton_tolerance: f32,
+    /// With `inextensible`: Gauss–Seidel passes over the edges alone after
+    /// each Newton iteration. A Newton step is exact for the linearised
+    /// constraints; where the cloth is curved and moving fast (the seed's
+    /// wind moves its free edge further than a bar's length per step) it
+    /// overshoots locally, and these cheap passes remove that local error
+    /// so the next iteration starts close. Range `0 ..= 1000`, default 32.
+    pub newton_smoothing: u32,
 }
+
+/// Largest accepted number of Newton iterations per substep.
+pub const MAX_NEWTON_ITERATIONS: u32 = 100;
 
 /// The first step of the simulation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -199,6 +225,10 @@ impl Default for SolverParams {
             gravity_acceleration: None,
             stretch_stiffness: None,
             bend_stiffness: None,
+            inextensible: false,
+            newton_iterations: 4,
+            newton_tolerance: 1e-3,
+            newton_smoothing: 32,
         }
     }
 }
@@ -268,6 +298,15 @@ impl SolverParams {
             if !(0.0..=MAX_COMPLIANCE).contains(&alpha) {
                 return Err(ParamError::new(name, alpha, "m/N, 0 <= compliance <= 1 (0 is rigid)"));
             }
+        }
+        if !(1..=MAX_NEWTON_ITERATIONS).contains(&self.newton_iterations) {
+            return Err(ParamError::new("newton_iterations", self.newton_iterations, "an integer from 1 to 100"));
+        }
+        if self.newton_smoothing > 1000 {
+            return Err(ParamError::new("newton_smoothing", self.newton_smoothing, "an integer from 0 to 1000"));
+        }
+        if !(self.newton_tolerance > 0.0 && self.newton_tolerance < 1.0) {
+            return Err(ParamError::new("newton_tolerance", self.newton_tolerance, "0 < newton_tolerance < 1"));
         }
         if !(1.0..2.0).contains(&self.over_relaxation) {
             return Err(ParamError::new("over_relaxation", self.over_relaxation, "1 <= over_relaxation < 2"));
@@ -365,6 +404,10 @@ mod tests {
             (SolverParams { gravity_acceleration: Some(Vec3::new(0.0, 1e5, 0.0)), ..base.clone() }, "g"),
             (SolverParams { stretch_stiffness: Some(0.0), ..base.clone() }, "stretch_stiffness"),
             (SolverParams { bend_stiffness: Some(f32::INFINITY), ..base.clone() }, "bend_stiffness"),
+            (SolverParams { newton_iterations: 0, ..base.clone() }, "newton_iterations"),
+            (SolverParams { newton_tolerance: 0.0, ..base.clone() }, "newton_tolerance"),
+            (SolverParams { newton_smoothing: 1001, ..base.clone() }, "newton_smoothing"),
+            (SolverParams { newton_tolerance: f32::NAN, ..base.clone() }, "newton_tolerance"),
             (
                 SolverParams {
                     wind: Wind::Air(crate::sim::wind::Air { gusts: -1.0, ..Default::default() }),

@@ -9,6 +9,8 @@ use super::aero::{AeroStep, Aerodynamics};
 use super::collider::{Collider, Motion, Pose};
 use super::contact::ContactStep;
 use super::fast;
+use super::hold::{Hold, Holds};
+use super::inextensible::{FastProjection, ProjectionError, ProjectionReport, ProjectionStep};
 use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
 use super::params::{ParamError, SolverParams, Start};
@@ -62,6 +64,9 @@ pub enum SimError {
         /// The first particle found with a non-finite coordinate.
         particle: usize,
     },
+    /// The inextensible projection could not be set up for this mesh.
+    #[error(transparent)]
+    Projection(#[from] ProjectionError),
     /// A particle index outside the mesh.
     #[error("particle {index} does not exist: the mesh has {count} particles")]
     NoSuchParticle {
@@ -102,6 +107,10 @@ pub struct Simulation {
     dragged: Vec<(usize, Pose, Pose)>,
     /// The self-collide phase's hash grid, while self-collision is on.
     self_contact: Option<SelfContact>,
+    /// The project phase, while the cloth is inextensible.
+    projection: Option<FastProjection>,
+    /// Particles held toward targets (a grab).
+    holds: Holds,
     solver: Box<dyn Solver>,
     positions: Vec<Vec3>,
     previous: Vec<Vec3>,
@@ -136,6 +145,7 @@ impl Simulation {
         let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), mesh.bars(), &fixed));
         let solver = build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers);
         let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
+        let projection = if params.inextensible { Some(FastProjection::new(&mesh)?) } else { None };
         Ok(Self {
             mesh,
             params,
@@ -147,6 +157,8 @@ impl Simulation {
             colliders: Vec::new(),
             dragged: Vec::new(),
             self_contact,
+            projection,
+            holds: Holds::new(positions.len()),
             solver,
             positions,
             previous,
@@ -184,7 +196,7 @@ impl Simulation {
     }
     /// Changes the parameters; they apply from the next step on. A new
     /// density rewrites every free particle's weight (no rebuild).
-    pub fn set_params(&mut self, params: SolverParams) -> Result<(), ParamError> {
+    pub fn set_params(&mut self, params: SolverParams) -> Result<(), SimError> {
         params.validate()?;
         units::check_surface(&params, &self.mesh)?;
         let material = Derived::new(&self.mesh, &params)?;
@@ -201,6 +213,9 @@ impl Simulation {
                     self.solver.set_inverse_mass(i, w);
                 }
             }
+        }
+        if params.inextensible != self.projection.is_some() {
+            self.projection = if params.inextensible { Some(FastProjection::new(&self.mesh)?) } else { None };
         }
         self.material = material;
         let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
@@ -389,8 +404,18 @@ impl Simulation {
                     displacement_per_newton: dt * dt / mass,
                     parallel: true,
                 });
+                let project_step = ProjectionStep {
+                    weights: &self.inverse_mass,
+                    beta: substep.stretch_beta,
+                    iterations: p.newton_iterations,
+                    tolerance: p.newton_tolerance,
+                    smoothing: p.newton_smoothing,
+                };
+                let holding = !self.holds.list.is_empty();
                 let phases = Phases {
                     air: self.aero.as_mut().zip(air_step.as_ref()),
+                    hold: holding.then_some((&mut self.holds, &self.inverse_mass[..])),
+                    project: self.projection.as_mut().map(|phase| (phase, &project_step)),
                     self_contact: self.self_contact.as_mut().map(|phase| (phase, &self_step)),
                     contact: contact.as_ref(),
                 };
@@ -444,6 +469,61 @@ impl Simulation {
         Ok(())
     }
 
+    /// Holds free particle `index` toward `target` with a grip of at most
+    /// `max_acceleration` m/s² (see [`super::hold`]); holding it again
+    /// moves the target. It stays free, so the bars (and the inextensible
+    /// projection) share the pull instead of stretching to wherever the
+    /// hand is. A fixed particle is not moved by a hold.
+    pub fn hold(&mut self, index: usize, target: Vec3, max_acceleration: f32) -> Result<(), SimError> {
+        self.check_index(index)?;
+        if !target.is_finite() {
+            return Err(SimError::Param(ParamError::new("hold target", target, "finite coordinates")));
+        }
+        if !(max_acceleration > 0.0 && max_acceleration.is_finite()) {
+            return Err(SimError::Param(ParamError::new(
+                "hold max_acceleration",
+                max_acceleration,
+                "m/s², finite and > 0",
+            )));
+        }
+        let hold = Hold { particle: index, target, max_acceleration };
+        match self.holds.list.iter_mut().find(|h| h.particle == index) {
+            Some(h) => *h = hold,
+            None => {
+                self.holds.list.push(hold);
+                if !self.fixed[index] {
+                    let weight = self.material.weight[index] * HAND_WEIGHT;
+                    self.inverse_mass[index] = weight;
+                    self.solver.set_inverse_mass(index, weight);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Lets go of particle `index` if it is held; it keeps its velocity
+    /// and its own weight.
+    pub fn release(&mut self, index: usize) {
+        let before = self.holds.list.len();
+        self.holds.list.retain(|h| h.particle != index);
+        if self.holds.list.len() < before && !self.fixed[index] {
+            let weight = self.material.weight[index];
+            self.inverse_mass[index] = weight;
+            self.solver.set_inverse_mass(index, weight);
+        }
+    }
+
+    /// The particles held now.
+    pub fn holds(&self) -> &[Hold] {
+        &self.holds.list
+    }
+
+    /// What the inextensible projection did in the last substep (`None`
+    /// while the cloth is not inextensible).
+    pub fn last_projection(&self) -> Option<ProjectionReport> {
+        self.projection.as_ref().map(FastProjection::last_report)
+    }
+
     /// Puts a particle at `position` (as a mouse drag does). Its previous
     /// position becomes its current one, so a free particle keeps the motion
     /// of the move as velocity.
@@ -486,6 +566,13 @@ impl Simulation {
     pub fn strain(&self) -> Strain {
         metrics::strain(&self.positions, self.mesh.bars(), &self.fixed)
     }
+    /// Max and RMS relative strain of the edges alone
+    /// ([`ClothMesh::is_edge`]: a grid's horizontal and vertical bars), the
+    /// stretch of the cloth along its threads.
+    pub fn edge_strain(&self) -> Strain {
+        let edges: Vec<Bar> = self.mesh.bars().iter().filter(|b| self.mesh.is_edge(b)).copied().collect();
+        metrics::strain(&self.positions, &edges, &self.fixed)
+    }
     /// Kinetic energy of the free particles, joules, from the velocity of the
     /// last substep, (x − x_prev)/(h/n).
     pub fn kinetic_energy(&self) -> f64 {
@@ -527,6 +614,11 @@ impl Simulation {
         self.solver.set_tethers(tethers);
     }
 }
+
+/// A held particle's weight relative to its own: the hand is 50 times
+/// heavier, so the bars and the projection move the cloth toward the hand
+/// rather than the hand back toward the cloth ([`super::hold`]).
+const HAND_WEIGHT: f32 = 0.02;
 
 /// What the parameters and the mesh make of masses and stiffness.
 #[derive(Clone, Debug, PartialEq)]

@@ -13,8 +13,14 @@
 //!                for every particle of non-zero inverse mass:
 //!                d ← (1 − δ) d + w h² f/m + h² g,  x ← x + d + w Δ
 //!                (x_pred = x + d: the air's push is a force settled into d)
+//!    hold        (while a particle is held) each held particle moved
+//!                toward its target, at most a_max (h/n)² ([`super::hold`])
 //! 2. relax       tethers, then `relaxations` Gauss–Seidel passes over the
 //!                bars (the seed's Figure 3, XPBD when compliant)
+//!    project     (when inextensible) Newton iterations that put every
+//!                edge back to its rest length at once
+//!                ([`super::inextensible`]), each followed by
+//!                Gauss–Seidel passes over the edges alone
 //! 3. self-collide (when on) particles of the cloth kept a thickness apart
 //!                from each other ([`super::self_contact`])
 //! 4. collide     every particle near a collider is pushed out to the
@@ -44,6 +50,8 @@ use glam::Vec3;
 
 use super::aero::{AeroStep, Aerodynamics};
 use super::contact::ContactStep;
+use super::hold::Holds;
+use super::inextensible::{FastProjection, ProjectionStep};
 use super::self_contact::{SelfContact, SelfContactStep};
 use super::tether::Tethers;
 
@@ -130,6 +138,11 @@ impl Clone for Box<dyn Solver> {
 pub struct Phases<'a, 'b> {
     /// The air phase, with the wind model "air".
     pub air: Option<(&'a mut Aerodynamics, &'a AeroStep)>,
+    /// The hold phase, while particles are held, with every particle's
+    /// weight.
+    pub hold: Option<(&'a mut Holds, &'a [f32])>,
+    /// The project phase, when the cloth is inextensible.
+    pub project: Option<(&'a mut FastProjection, &'a ProjectionStep<'b>)>,
     /// The self-collide phase, when self-collision is on.
     pub self_contact: Option<(&'a mut SelfContact, &'a SelfContactStep)>,
     /// The collide phase, when there are colliders.
@@ -139,7 +152,7 @@ pub struct Phases<'a, 'b> {
 /// Runs one substep: the phases in their order, skipping what the scene
 /// does not need. Returns the relaxation passes made.
 pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 {
-    let Phases { air, self_contact, contact } = phases;
+    let Phases { air, hold, project, self_contact, contact } = phases;
     // The Euler start (equation 2) ignores every force, the air's too.
     let push = air.filter(|_| s.first.is_none()).map(|(phase, step)| {
         solver.read(&mut phase.x, &mut phase.x_prev);
@@ -149,7 +162,15 @@ pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 
     if let Some(push) = push {
         solver.push(push);
     }
+    if let Some((holds, weights)) = hold {
+        solver.read(&mut holds.x, &mut holds.x_prev);
+        solver.push(holds.compute(s.dt, weights));
+    }
     let passes = solver.relax(s);
+    if let Some((phase, step)) = project {
+        solver.read(&mut phase.x, &mut phase.x_prev);
+        solver.push(phase.compute(step));
+    }
     if let Some((phase, step)) = self_contact {
         solver.self_collide(phase, step);
     }

@@ -434,6 +434,24 @@ impl ClothMesh {
     pub fn grid(&self) -> Option<GridShape> {
         self.grid
     }
+    /// Whether `bar` is an edge of the cloth's surface: on a grid, a
+    /// structural bar between horizontal or vertical neighbours (not a
+    /// diagonal, the warp and weft of a woven cloth); on any other mesh,
+    /// every structural bar. The inextensible projection keeps the edges at
+    /// their rest lengths ([`crate::sim::inextensible`]).
+    pub fn is_edge(&self, bar: &Bar) -> bool {
+        if bar.kind != BarKind::Structural {
+            return false;
+        }
+        match self.grid {
+            None => true,
+            Some(shape) => {
+                let (a, b) = (bar.a.min(bar.b), bar.a.max(bar.b));
+                let same_row = a / shape.columns == b / shape.columns;
+                (b - a == 1 && same_row) || b - a == shape.columns
+            }
+        }
+    }
     /// The axis-aligned box around the initial positions: (min, max).
     pub fn bounds(&self) -> (Vec3, Vec3) {
         bounds(&self.positions)

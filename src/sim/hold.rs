@@ -1,0 +1,101 @@
+//! The hold phase: particles pulled toward targets by a hand with a
+//! bounded grip (a grab in the viewer).
+//!
+//! A hard grab (fixing a particle and moving it) puts the whole cloth's
+//! strain on the bars around it: the solver cannot move the held particle,
+//! so however far the hand goes in a step, its bars must stretch that far.
+//! A hold instead leaves the particle free, with the weight of a hand (50
+//! times its own mass, so the bars move the cloth toward the hand more than
+//! the hand toward the cloth), and, once per substep after integration,
+//! moves it toward its target:
+//!
+//! ```text
+//! Δ = target − x,      x ← x + Δ · min(1, a_max (h/n)² / |Δ|)
+//! ```
+//!
+//! That is a force of at most m_i a_max (the hand's grip), applied as a
+//! displacement that settling carries into the particle's velocity, as
+//! every force is. The bars then share the pull by the weights: with the
+//! inextensible projection on, the cloth follows the hand as far as its
+//! pins let it, and the held particle lags behind the hand rather than
+//! stretching the cloth. A fixed particle (a pin) cannot be held this way;
+//! it is moved by hand ([`super::Simulation::move_particle`]).
+
+use glam::Vec3;
+
+/// A particle pulled toward a target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hold {
+    /// The particle held, scene order.
+    pub particle: usize,
+    /// Where the hand is, metres.
+    pub target: Vec3,
+    /// a_max: the largest acceleration the grip gives the particle, m/s²
+    /// (> 0, finite).
+    pub max_acceleration: f32,
+}
+
+/// The phase's state: the holds and the buffers one substep works in.
+#[derive(Clone, Debug, Default)]
+pub struct Holds {
+    /// The holds, at most one per particle.
+    pub list: Vec<Hold>,
+    /// Positions after integration, scene order (the solver writes them).
+    pub x: Vec<Vec3>,
+    /// Positions at the start of the substep (read along with `x`, unused).
+    pub x_prev: Vec<Vec3>,
+    push: Vec<Vec3>,
+}
+
+impl Holds {
+    /// No holds, with buffers for `particles` particles.
+    pub fn new(particles: usize) -> Self {
+        Self { list: Vec::new(), x: vec![Vec3::ZERO; particles], x_prev: vec![Vec3::ZERO; particles], push: Vec::new() }
+    }
+
+    /// Each particle's move toward its target for a substep of `dt`
+    /// seconds, divided by its weight (what [`super::Solver::push`]
+    /// multiplies back); zero for particles not held or of weight 0.
+    pub fn compute(&mut self, dt: f32, weights: &[f32]) -> &[Vec3] {
+        self.push.clear();
+        self.push.resize(self.x.len(), Vec3::ZERO);
+        for hold in &self.list {
+            let (i, w) = (hold.particle, weights[hold.particle]);
+            if w <= 0.0 {
+                continue;
+            }
+            let delta = hold.target - self.x[i];
+            let cap = hold.max_acceleration * dt * dt;
+            let length = delta.length();
+            let delta = if length > cap { delta * (cap / length) } else { delta };
+            self.push[i] = delta / w;
+        }
+        &self.push
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hold_moves_at_most_a_max_dt_squared_and_never_moves_a_pin() {
+        let mut holds = Holds {
+            list: vec![
+                Hold { particle: 0, target: Vec3::new(10.0, 0.0, 0.0), max_acceleration: 100.0 },
+                Hold { particle: 1, target: Vec3::new(1.0, 0.001, 0.0), max_acceleration: 100.0 },
+                Hold { particle: 2, target: Vec3::ONE, max_acceleration: 100.0 },
+            ],
+            x: vec![Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::ZERO],
+            ..Holds::default()
+        };
+        // dt = 0.01 s: the cap is 100 · 1e-4 = 0.01 m. Particle 0 is 10 m
+        // away and moves 0.01 m (its weight 2 halves what push gets, push
+        // doubles it back); particle 1 is 1 mm away and goes all the way;
+        // particle 2 is fixed.
+        let push = holds.compute(0.01, &[2.0, 1.0, 0.0]).to_vec();
+        assert!((push[0] * 2.0 - Vec3::new(0.01, 0.0, 0.0)).length() < 1e-7, "{}", push[0]);
+        assert!((push[1] - Vec3::new(0.0, 0.001, 0.0)).length() < 1e-7, "{}", push[1]);
+        assert_eq!(push[2], Vec3::ZERO);
+    }
+}
