@@ -318,6 +318,7 @@ fn main() {
     }
 
     report.push_str(&stability(&seed, quick, &out.join("stability.csv")));
+    report.push_str(&inextensible(quick));
     println!("{report}");
     std::fs::write(out.join("report.md"), &report).expect("write the report");
     eprintln!("wrote {}", out.display());
@@ -574,4 +575,119 @@ fn stability(seed: &drape::scene::Scene, quick: bool, csv_path: &std::path::Path
     }
     std::fs::write(csv_path, csv).expect("write stability.csv");
     s
+}
+
+/// The inextensible edges against the seed's method, in one run: the
+/// edges' max strain (typical and worst step) and the wall time per step,
+/// on the seed's scene in its wind (100 s after 2 s of warm-up), without
+/// wind, and on the 256 × 256 cloth (a few steps).
+fn inextensible(quick: bool) -> String {
+    let seed = drape::scene::load("seed").expect("bundled scene");
+    let inext = drape::scene::load("seed-inextensible").expect("bundled scene");
+    let large = drape::scene::load("large").expect("bundled scene");
+    let steps = |seconds: f64, dt: f32| (seconds / f64::from(dt)).round() as u64;
+    let calm = |p: &SolverParams| SolverParams { wind: Wind::None, ..p.clone() };
+    let large_inext = SolverParams { inextensible: true, relaxations: 4, ..large.params.clone() };
+    let (seconds, large_steps) = if quick { (5.0, 3) } else { (100.0, 10) };
+    let cases: Vec<(&str, &ClothMesh, SolverParams, SolverKind, u64, u64)> = vec![
+        (
+            "seed, 20 passes, reference",
+            &seed.mesh,
+            seed.params.clone(),
+            SolverKind::Reference,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        (
+            "seed, 20 passes, fast",
+            &seed.mesh,
+            seed.params.clone(),
+            SolverKind::Fast,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        (
+            "seed-inextensible, fast",
+            &inext.mesh,
+            inext.params.clone(),
+            SolverKind::Fast,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        (
+            "seed-inextensible, reference",
+            &inext.mesh,
+            inext.params.clone(),
+            SolverKind::Reference,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        (
+            "no wind, 20 passes, reference",
+            &seed.mesh,
+            calm(&seed.params),
+            SolverKind::Reference,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        (
+            "no wind, 20 passes, fast",
+            &seed.mesh,
+            calm(&seed.params),
+            SolverKind::Fast,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        (
+            "no wind, inextensible, fast",
+            &inext.mesh,
+            calm(&inext.params),
+            SolverKind::Fast,
+            40,
+            steps(seconds, seed.params.dt),
+        ),
+        ("256 × 256, 20 passes, fast", &large.mesh, large.params.clone(), SolverKind::Fast, 10, large_steps),
+        ("256 × 256, inextensible, fast", &large.mesh, large_inext, SolverKind::Fast, 10, large_steps),
+    ];
+    let mut out = String::from(
+        "\n### Inextensible edges (edges' max strain; wall time per step: the seed's cloth on one thread, the 256 × 256 one threaded)\n\n\
+         | case | typical max strain | worst step | wall time per step | ÷ seed's 20 passes, reference |\n\
+         |---|---:|---:|---:|---:|\n",
+    );
+    let mut yardstick = None;
+    for (name, mesh, params, kind, warmup, measured) in cases {
+        let mut sim = drape::sim::Simulation::with_solver(mesh.clone(), params, kind).expect("valid parameters");
+        let mut history = StrainHistory::default();
+        let mut wall = 0.0;
+        for k in 0..warmup + measured {
+            let start = Instant::now();
+            let stepped = sim.step();
+            wall += start.elapsed().as_secs_f64();
+            if stepped.is_err() {
+                history.record(drape::sim::Strain { max: f32::INFINITY, rms: f32::INFINITY });
+                break;
+            }
+            if k >= warmup {
+                history.record(sim.edge_strain());
+            }
+        }
+        let per_step = wall / (warmup + measured) as f64;
+        let base = *yardstick.get_or_insert(per_step);
+        let ratio = if name.starts_with("256") { "–".to_string() } else { format!("{:.2}", per_step / base) };
+        eprintln!(
+            "inextensible {name}: {:.3e} typical, {:.3e} worst, {:.3} ms/step",
+            history.mean_max(),
+            history.worst_max,
+            per_step * 1e3
+        );
+        writeln!(
+            out,
+            "| {name} | {:.2e} | {:.2e} | {:.3} ms | {ratio} |",
+            history.mean_max(),
+            history.worst_max,
+            per_step * 1e3
+        )
+        .unwrap();
+    }
+    out
 }

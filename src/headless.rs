@@ -41,8 +41,9 @@ pub struct RunSummary {
     /// The edges' max strain over the run's steps: its mean over the steps
     /// (typical) and its largest (worst).
     pub edge_strain_over_run: (f64, f32),
-    /// With inextensible edges: the Newton iterations of the last substep.
-    pub newton: Option<u32>,
+    /// With inextensible edges: the Newton iterations per step, mean over
+    /// the run (of each step's last substep).
+    pub newton: Option<f64>,
     /// Kinetic energy of the free particles at the end, joules.
     pub kinetic_energy: f64,
 }
@@ -73,7 +74,7 @@ impl std::fmt::Display for RunSummary {
             self.edge_strain_over_run.0, self.edge_strain_over_run.1
         )?;
         if let Some(iterations) = self.newton {
-            writeln!(f, "newton (last step)   {iterations} iterations (inextensible)")?;
+            writeln!(f, "newton iterations    {iterations:.2} per step, mean (inextensible)")?;
         }
         write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)
     }
@@ -123,15 +124,16 @@ pub fn run(
     }
     let mut stepping = Duration::ZERO;
     let mut done = 0;
-    let edges: Vec<crate::sim::Bar> = sim.bars().iter().filter(|b| sim.mesh().is_edge(b)).copied().collect();
     let mut history = crate::sim::StrainHistory::default();
+    let mut newton = 0u64;
     while done < steps {
         let n = chunk.min(steps - done);
         for _ in 0..n {
             let start = Instant::now();
             sim.advance(1)?;
             stepping += start.elapsed();
-            history.record(crate::sim::metrics::strain(sim.positions(), &edges, sim.fixed()));
+            history.record(sim.edge_strain());
+            newton += sim.last_projection().map_or(0, |r| u64::from(r.iterations));
         }
         done += n;
         if let Some((w, every)) = trace.as_mut()
@@ -157,7 +159,7 @@ pub fn run(
         strain: sim.strain(),
         edge_strain: sim.edge_strain(),
         edge_strain_over_run: (history.mean_max(), history.worst_max),
-        newton: sim.last_projection().map(|r| r.iterations),
+        newton: sim.last_projection().map(|_| newton as f64 / steps.max(1) as f64),
         kinetic_energy: sim.kinetic_energy(),
     })
 }

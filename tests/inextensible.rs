@@ -3,17 +3,16 @@
 //! degenerate input, pins that change, and a grab that does not stretch.
 
 use drape::sim::exact::{discrete_catenary, pendulum_period};
-use drape::sim::{Bar, ClothMesh, Simulation, SolverKind, SolverParams, StrainHistory};
+use drape::sim::{ClothMesh, Simulation, SolverKind, SolverParams, StrainHistory};
 use glam::{DVec2, Vec3};
 
 /// The edges' max strain over `steps` steps after `warmup`: (typical, worst).
 fn edge_strain_run(sim: &mut Simulation, warmup: u64, steps: u64) -> (f64, f32) {
-    let edges: Vec<Bar> = sim.bars().iter().filter(|b| sim.mesh().is_edge(b)).copied().collect();
     sim.advance(warmup).unwrap();
     let mut history = StrainHistory::default();
     for _ in 0..steps {
         sim.step().unwrap();
-        history.record(drape::sim::metrics::strain(sim.positions(), &edges, sim.fixed()));
+        history.record(sim.edge_strain());
     }
     (history.mean_max(), history.worst_max)
 }

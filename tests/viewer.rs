@@ -87,7 +87,8 @@ fn dragging_the_cloth_pulls_a_particle_and_releases_it() {
     let at = v.particle_on_screen(particle).unwrap();
     let start = v.simulation().positions()[particle];
     frame(&mut v, 1, vec![Event::PointerMoved(at), press(at, PointerButton::Primary, true, Modifiers::NONE)]);
-    assert!(v.simulation().fixed()[particle], "a held particle is fixed");
+    assert!(!v.simulation().fixed()[particle], "a held particle stays free");
+    assert_eq!(v.simulation().holds().len(), 1, "and is held");
     v.apply(UiCommand::TogglePause); // run while holding
     for n in 2..12 {
         frame(&mut v, n, vec![Event::PointerMoved(at + vec2(8.0 * (n - 1) as f32, 0.0))]);
@@ -96,7 +97,7 @@ fn dragging_the_cloth_pulls_a_particle_and_releases_it() {
     assert!(held.x > start.x + 0.5, "dragged right on screen, moved +x in the world: {start} → {held}");
     let end = at + vec2(80.0, 0.0);
     frame(&mut v, 12, vec![press(end, PointerButton::Primary, false, Modifiers::NONE)]);
-    assert!(!v.simulation().fixed()[particle], "released particles are free again");
+    assert!(!v.simulation().fixed()[particle] && v.simulation().holds().is_empty(), "released: free, not held");
     // The camera did not move: the drag went to the cloth, not to orbiting.
     let camera = *v.camera();
     frame(&mut v, 13, vec![]);

@@ -375,7 +375,7 @@ impl Viewer {
         }
         let simulated = self.sim.time() - time_before;
         let at = now.as_secs_f64();
-        let strain = *self.strain.get_or_insert_with(|| self.sim.strain());
+        let strain = *self.strain.get_or_insert_with(|| self.sim.edge_strain());
         self.stats.record_frame(at, frame_seconds, solver_seconds, steps, simulated, strain);
     }
 

@@ -212,13 +212,15 @@ pub fn bar_strain(positions: &[Vec3], bar: &Bar) -> f32 {
     (len - bar.rest_length).abs() / bar.rest_length
 }
 
-/// The strain a vertex shows on the surface: the largest over the
-/// structural bars that meet it (bend bars also shorten when the cloth
-/// folds, which is not stretch).
-pub fn vertex_strain(positions: &[Vec3], bars: &[Bar], out: &mut Vec<f32>) {
+/// The strain a vertex shows on the surface: the largest over the bars
+/// that meet it and are edges (`is_edge`: [`crate::sim::ClothMesh::is_edge`],
+/// a grid's horizontal and vertical bars, the threads' stretch). Bend bars
+/// shorten when the cloth folds and a grid's diagonals when it shears,
+/// neither of which is stretch.
+pub fn vertex_strain(positions: &[Vec3], bars: &[Bar], is_edge: impl Fn(&Bar) -> bool, out: &mut Vec<f32>) {
     out.clear();
     out.resize(positions.len(), 0.0);
-    for bar in bars.iter().filter(|b| b.kind == BarKind::Structural) {
+    for bar in bars.iter().filter(|b| is_edge(b)) {
         let e = bar_strain(positions, bar);
         let (a, b) = (bar.a as usize, bar.b as usize);
         out[a] = out[a].max(e);
@@ -329,7 +331,7 @@ mod tests {
             Bar { a: 0, b: 2, rest_length: 0.1, kind: BarKind::Bend },
         ];
         let mut s = Vec::new();
-        vertex_strain(&positions, &bars, &mut s);
+        vertex_strain(&positions, &bars, |b| b.kind == BarKind::Structural, &mut s);
         assert!((s[0] - 0.1).abs() < 1e-6 && (s[1] - 0.1).abs() < 1e-6 && (s[2] - 0.1).abs() < 1e-6, "{s:?}");
         let mut inst = Vec::new();
         bar_instances(&positions, &bars, false, true, &mut inst);

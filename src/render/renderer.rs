@@ -236,7 +236,8 @@ impl ClothBuffers {
             self.stale.surface = false;
         }
         if options.surface && has_surface && options.strain_colours && self.stale.strain {
-            geometry::vertex_strain(&self.positions, self.mesh.bars(), &mut self.vertex_strain);
+            let mesh = &self.mesh;
+            geometry::vertex_strain(&self.positions, mesh.bars(), |b| mesh.is_edge(b), &mut self.vertex_strain);
             self.strain.write(device, queue, bytemuck::cast_slice(&self.vertex_strain));
             self.stale.strain = false;
         }

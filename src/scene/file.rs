@@ -91,11 +91,11 @@ pub struct SolverTable {
     pub self_collision: bool,
     /// Put every edge back to its rest length each substep (global Newton).
     pub inextensible: bool,
-    /// Most Newton iterations per substep (default 4).
+    /// Most Newton iterations per substep (default 3).
     pub newton_iterations: u32,
-    /// Edge strain that ends the iterations (default 0.001).
+    /// Edge strain that ends the iterations (default 0.002).
     pub newton_tolerance: f32,
-    /// Edge passes after each Newton iteration (default 32).
+    /// Edge passes after each Newton iteration (default 48).
     pub newton_smoothing: u32,
 }
 

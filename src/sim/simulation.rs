@@ -92,6 +92,8 @@ pub enum SimError {
 #[derive(Clone, Debug)]
 pub struct Simulation {
     mesh: Arc<ClothMesh>,
+    /// The mesh's edges ([`ClothMesh::is_edge`]), for [`Self::edge_strain`].
+    edges: Arc<[Bar]>,
     params: SolverParams,
     kind: SolverKind,
     /// Masses and compliances derived from the parameters and the mesh.
@@ -146,8 +148,10 @@ impl Simulation {
         let solver = build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers);
         let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
         let projection = if params.inextensible { Some(FastProjection::new(&mesh)?) } else { None };
+        let edges = mesh.bars().iter().filter(|b| mesh.is_edge(b)).copied().collect();
         Ok(Self {
             mesh,
+            edges,
             params,
             kind,
             material,
@@ -570,8 +574,7 @@ impl Simulation {
     /// ([`ClothMesh::is_edge`]: a grid's horizontal and vertical bars), the
     /// stretch of the cloth along its threads.
     pub fn edge_strain(&self) -> Strain {
-        let edges: Vec<Bar> = self.mesh.bars().iter().filter(|b| self.mesh.is_edge(b)).copied().collect();
-        metrics::strain(&self.positions, &edges, &self.fixed)
+        metrics::strain(&self.positions, &self.edges, &self.fixed)
     }
     /// Kinetic energy of the free particles, joules, from the velocity of the
     /// last substep, (x − x_prev)/(h/n).

@@ -57,7 +57,15 @@ pub fn panel(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) -> Vec
         });
         egui::CollapsingHeader::new("Solver").default_open(true).show(ui, |ui| {
             let defaults = SceneDefaults { params: &model.scene.params, solver: model.scene.solver };
-            let how = format!("{}; {} passes last substep", model.sim.solver_description(), model.sim.last_passes());
+            let mut how =
+                format!("{}; {} passes last substep", model.sim.solver_description(), model.sim.last_passes());
+            if let Some(r) = model.sim.last_projection() {
+                how.push_str(&format!(
+                    "; {} Newton iterations, edges to {:.3} %",
+                    r.iterations,
+                    r.strain_after * 100.0
+                ));
+            }
             commands.extend(solver_controls(ui, model.sim.params(), model.sim.solver(), &how, defaults));
         });
         egui::CollapsingHeader::new("View").default_open(true).show(ui, |ui| {
@@ -180,8 +188,8 @@ fn stats_section(ui: &mut Ui, model: &PanelModel<'_>) {
         ("speed", optional(stats.speed(), |s| format!("{s:.2}× real"))),
         ("particles", model.sim.positions().len().to_string()),
         ("bars", model.sim.movable_bar_count().to_string()),
-        ("max strain", format!("{:.2} %", strain.max * 100.0)),
-        ("RMS strain", format!("{:.3} %", strain.rms * 100.0)),
+        ("max stretch", format!("{:.2} %", strain.max * 100.0)),
+        ("RMS stretch", format!("{:.3} %", strain.rms * 100.0)),
     ];
     egui::Grid::new("stats").num_columns(4).striped(true).spacing([6.0, 2.0]).show(ui, |ui| {
         for pair in figures.chunks(2) {
@@ -199,7 +207,7 @@ fn stats_section(ui: &mut Ui, model: &PanelModel<'_>) {
     ui.label(RichText::new("solver ms per step over the last seconds").small());
     small_plot("solver plot")
         .show(ui, |p| p.line(Line::new("solver ms", solver).color(Color32::from_rgb(90, 160, 255))));
-    ui.label(RichText::new("strain %: max (red), RMS (yellow)").small());
+    ui.label(RichText::new("stretch of the edges %: max (red), RMS (yellow)").small());
     small_plot("strain plot").show(ui, |p| {
         p.line(Line::new("max strain %", max).color(Color32::from_rgb(240, 90, 70)));
         p.line(Line::new("RMS strain %", rms).color(Color32::from_rgb(240, 200, 80)));

@@ -51,6 +51,7 @@ pub fn solver_controls(
     let mut edited = params.clone();
     ui.add(slider(&mut edited.relaxations, 0..=100).text("relaxations"))
         .on_hover_text("Passes over every bar per step: more is stiffer and slower (the seed's Table 1).");
+    inextensible_controls(ui, &mut edited);
     ui.add(slider(&mut edited.damping, 0.0..=0.5).logarithmic(true).smallest_positive(1e-4).text("damping δ"))
         .on_hover_text("Share of last step's motion removed each step (equation 1).");
     ui.add(slider(&mut edited.dt, 0.001..=0.1).logarithmic(true).suffix(" s").text("time step h"))
@@ -90,6 +91,27 @@ pub fn solver_controls(
         commands.push(UiCommand::RestoreSceneParams);
     }
     commands
+}
+
+/// Inextensible edges: the switch, and when on the Newton iterations,
+/// the smoothing passes and the tolerance.
+fn inextensible_controls(ui: &mut Ui, p: &mut SolverParams) {
+    ui.checkbox(&mut p.inextensible, "inextensible edges").on_hover_text(
+        "After the passes, a global Newton solve (sparse Cholesky) puts every horizontal and vertical bar back to \
+         its length: cloth that stretches under 1 % in the seed's wind, at about 2× the seed's own cost.",
+    );
+    if p.inextensible {
+        ui.indent("newton", |ui| {
+            ui.spacing_mut().slider_width = 72.0;
+            ui.add(slider(&mut p.newton_iterations, 1..=10).text("Newton iterations"))
+                .on_hover_text("Global solves per step, at most: each about 0.5 ms on the seed's cloth.");
+            ui.add(slider(&mut p.newton_smoothing, 0..=200).text("edge passes")).on_hover_text(
+                "Passes over the edges after each solve: they remove what the linearisation overshoots.",
+            );
+            ui.add(small_values(&mut p.newton_tolerance, 0.1, 1e-6, "exact").text("tolerance"))
+                .on_hover_text("The solves stop once every edge is within this strain.");
+        });
+    }
 }
 
 /// The solver's accuracy options beyond the seed's (substeps, XPBD
