@@ -215,6 +215,28 @@ fn bad_obj_and_bad_arguments_are_rejected() {
 }
 
 #[test]
+fn inextensible_flags_hold_the_seed_cloth_at_its_length() {
+    // 40 steps (2 s) of the seed's cloth in its wind, 4 passes. The edges'
+    // worst step with the projection and without it: bounds 2 % and 20 %
+    // (see tests/inextensible.rs for the figures over longer runs).
+    let worst = |out: &str| -> f64 {
+        let line = out.lines().find(|l| l.starts_with("edge max strain, run")).unwrap_or_default();
+        line.split_whitespace().nth(6).and_then(|w| w.parse().ok()).unwrap_or(f64::NAN)
+    };
+    let o = drape(&["run", "--steps", "40", "--inextensible", "--relaxations", "4", "--newton-iterations", "3"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(out.contains("newton iterations"), "{out}");
+    assert!(worst(&out) < 0.02, "{out}");
+    let o = drape(&["run", "--steps", "40", "--relaxations", "4"]);
+    let out = text(&o.stdout);
+    assert!(worst(&out) > 0.2, "{out}");
+    let o = drape(&["run", "--steps", "1", "--inextensible", "--newton-iterations", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("newton_iterations"), "{}", text(&o.stderr));
+}
+
+#[test]
 fn a_material_flag_makes_the_seed_cloth_silk() {
     // The seed's 20 × 30 cloth of 0.5 m spacing in silk: 9.5 × 14.5 m at
     // 0.06 kg/m² is 8.27 kg (the seed's 600 × 0.2 kg is 120 kg). Gravity

@@ -71,6 +71,14 @@ fn errors_name_the_key_and_the_allowed_range() {
     assert!(e.contains("grid.pinned"), "{e}");
     let e = err("[grid]\ncolumns = 3\nrows = 3\nspacing = 1.0\npinned = [[3, 0]]\n");
     assert!(e.contains("outside the grid"), "{e}");
+    let e = err(&format!("[solver]\ninextensible = true\nnewton_iterations = 0\n{GRID}"));
+    assert!(e.contains("solver.newton_iterations") && e.contains("from 1 to 100"), "{e}");
+    let e = err(&format!("[solver]\nnewton_tolerance = 0.0\n{GRID}"));
+    assert!(e.contains("solver.newton_tolerance") && e.contains("0 < newton_tolerance < 1"), "{e}");
+    let e = err(&format!("[solver]\nnewton_smoothing = 5000\n{GRID}"));
+    assert!(e.contains("solver.newton_smoothing"), "{e}");
+    let e = err(&format!("[solver]\ninextensible = \"yes\"\n{GRID}"));
+    assert!(e.contains("inextensible"), "{e}");
 }
 
 #[test]
