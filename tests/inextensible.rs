@@ -230,7 +230,7 @@ fn with_contact_the_cloth_drapes_stretching_less_and_stays_outside() {
     // 1 s: the cloth has landed and folds over the ball. Contact runs after
     // the projection and wins where they disagree (a square grid cannot lie
     // on a sphere without stretching or folding), so some stretch remains
-    // where the ball pushes: measured 5.6 % max with inextensible edges,
+    // where the ball pushes: measured 3.9 % max with inextensible edges,
     // 14.2 % with the scene's passes alone. Bounds: under 10 %, and under
     // 0.6 × the passes' figure. No particle inside the ball: every one at
     // least the thickness (8 mm) from its surface, less 1 %.

@@ -93,7 +93,7 @@ pub struct SolverTable {
     pub inextensible: bool,
     /// Most Newton iterations per substep (default 3).
     pub newton_iterations: u32,
-    /// Edge strain that ends the iterations (default 0.002).
+    /// Edge strain that ends the iterations (default 0.008).
     pub newton_tolerance: f32,
     /// Edge passes after each Newton iteration (default 48).
     pub newton_smoothing: u32,
