@@ -98,7 +98,7 @@ pub fn solver_controls(
 fn inextensible_controls(ui: &mut Ui, p: &mut SolverParams) {
     ui.checkbox(&mut p.inextensible, "inextensible edges").on_hover_text(
         "After the passes, a global Newton solve (sparse Cholesky) puts every horizontal and vertical bar back to \
-         its length: cloth that stretches under 1 % in the seed's wind, at about 2× the seed's own cost.",
+         its length: cloth that stretches under 1 % in the seed's wind, at about the seed's own cost.",
     );
     if p.inextensible {
         ui.indent("newton", |ui| {
