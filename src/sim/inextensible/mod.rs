@@ -85,16 +85,12 @@ use glam::{DVec3, Vec3};
 
 use super::mesh::ClothMesh;
 
+mod smoothing;
+use smoothing::Smoothing;
+
 /// Added to every diagonal entry of J W Jᵀ (dimensionless, against weights
 /// of order 1): keeps the matrix positive definite with degenerate edges.
 const REGULARISATION: f64 = 1e-9;
-/// ω of the smoothing passes over rigid edges (successive over-relaxation;
-/// the edges alone are not over-constrained, unlike the grid with its
-/// diagonals, so ω > 1 converges faster). Measured on `seed-inextensible`
-/// (typical / worst edge strain, ms per step): ω = 1: 0.35 % / 1.7 %,
-/// 2.8 ms; 1.3: 0.17 % / 1.1 %; 1.6: 0.10 % / 1.0 %, 2.6 ms; 1.8: 0.07 % /
-/// 1.7 %, 2.3 ms (the same tolerance; fewer Newton iterations needed).
-const SMOOTHING_OVER_RELAXATION: f32 = 1.8;
 /// 1 − cos θ of the largest turn of an edge since the last factorisation
 /// for which that factor is reused (θ ≈ 0.8°): then the step is a chord
 /// iteration, one solve instead of a factorisation.
@@ -167,21 +163,8 @@ pub struct FastProjection {
     /// Each edge's rest length L_j, metres.
     rest: Vec<f64>,
     couplings: Vec<Coupling>,
-    /// The edges in the order of the smoothing passes ([`sweep_order`]),
-    /// with this substep's shares.
-    sweep: Vec<SweepEdge>,
-    /// `sweep` cut into runs in which no two edges share a particle: each
-    /// run is projected as a batch (all lengths first, then all moves), the
-    /// same result as one by one, without each projection waiting on the
-    /// last one's stores.
-    runs: Vec<std::ops::Range<usize>>,
-    /// Per edge of the longest run: its vector, then its correction.
-    batch: Vec<Vec3>,
-    /// Per edge of the longest run: |e|², then 1 − L/|e| (contiguous, so
-    /// the square roots and divisions run in SIMD lanes).
-    factor_batch: Vec<f32>,
-    /// Per edge of the longest run: L.
-    rest_batch: Vec<f32>,
+    /// The smoothing passes' order and buffers.
+    smoothing: Smoothing,
     /// Slot of each diagonal entry in `values`.
     diagonal: Vec<usize>,
     /// The lower triangle of J W Jᵀ, compressed by column.
@@ -219,7 +202,7 @@ impl FastProjection {
         let edges: Vec<_> = mesh.bars().iter().filter(|b| mesh.is_edge(b)).collect();
         let m = edges.len();
         let ends: Vec<[u32; 2]> = edges.iter().map(|b| [b.a, b.b]).collect();
-        let rest = edges.iter().map(|b| f64::from(b.rest_length)).collect();
+        let rest: Vec<f64> = edges.iter().map(|b| f64::from(b.rest_length)).collect();
 
         // Each particle's edges, with the end it is of each.
         let mut incident: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
@@ -268,10 +251,7 @@ impl FastProjection {
                 }
             }
         }
-        let order = sweep_order(mesh, &ends);
-        let ends_for_order = ends.clone();
-        let runs = independent_runs(&order, &ends, n);
-        let longest = runs.iter().map(|r| r.len()).max().unwrap_or(0);
+        let smoothing = Smoothing::new(mesh, &ends, &rest);
         let failed = |reason: String| ProjectionError::Symbolic { edges: m, reason };
         let pattern = SymbolicSparseColMatRef::new_checked(m, m, &col_ptr, None, &row_idx);
         let symbolic = factorize_symbolic_cholesky(
@@ -291,25 +271,7 @@ impl FastProjection {
             ends,
             rest,
             couplings,
-            sweep: order
-                .iter()
-                .map(|&j| {
-                    let [a, b] = ends_for_order[j as usize];
-                    SweepEdge {
-                        a,
-                        b,
-                        edge: j,
-                        rest: edges[j as usize].rest_length,
-                        share_a: 0.0,
-                        share_b: 0.0,
-                        inverse: 0.0,
-                    }
-                })
-                .collect(),
-            runs,
-            batch: vec![Vec3::ZERO; longest],
-            factor_batch: vec![0.0; longest],
-            rest_batch: vec![0.0; longest],
+            smoothing,
             diagonal,
             col_ptr,
             row_idx,
@@ -341,8 +303,9 @@ impl FastProjection {
     }
 
     /// Projects `x` (read by the solver) onto the edges' rest lengths:
-    /// Newton iterations, each followed by `smoothing` Gauss–Seidel passes
-    /// over the edges, until every edge is within the tolerance. Returns
+    /// `smoothing` passes over the edges (module `smoothing`), then Newton
+    /// iterations, each followed by the passes again, until every edge is
+    /// within the tolerance. Returns
     /// each particle's move divided by its weight (what
     /// [`super::Solver::push`] multiplies back), scene order.
     pub fn compute(&mut self, step: &ProjectionStep) -> &[Vec3] {
@@ -351,13 +314,7 @@ impl FastProjection {
         let beta = f64::from(step.beta);
         self.start.copy_from_slice(&self.x);
         self.lambda.fill(0.0);
-        for edge in &mut self.sweep {
-            let sum = w(edge.a) + w(edge.b);
-            let inverse = if sum > 0.0 { 1.0 / (sum + beta) } else { 0.0 };
-            edge.share_a = (w(edge.a) * inverse) as f32;
-            edge.share_b = (w(edge.b) * inverse) as f32;
-            edge.inverse = inverse as f32;
-        }
+        self.smoothing.set_weights(weights, beta);
         let mut report = ProjectionReport::default();
         let mut strain = self.measure(weights);
         report.strain_before = strain as f32;
@@ -367,7 +324,7 @@ impl FastProjection {
             // needed at all). Not when the last factor still fits (a cloth
             // at rest): one solve with it is cheaper than the passes.
             for _ in 0..step.smoothing {
-                self.smooth(beta);
+                self.smoothing.pass(&mut self.x, &mut self.lambda, &self.rest, beta);
             }
             strain = self.measure(weights);
         }
@@ -413,7 +370,7 @@ impl FastProjection {
                 continue;
             }
             for _ in 0..step.smoothing {
-                self.smooth(beta);
+                self.smoothing.pass(&mut self.x, &mut self.lambda, &self.rest, beta);
             }
             strain = self.measure(weights);
         }
@@ -423,56 +380,6 @@ impl FastProjection {
             *push = if wi > 0.0 { (*x - *start) / wi } else { Vec3::ZERO };
         }
         &self.push
-    }
-
-    /// One Gauss–Seidel pass over the edges in mesh order (the seed's
-    /// projection, XPBD with β): removes the local error that a Newton
-    /// step's linearisation leaves where the cloth is curved. (Measured on
-    /// the seed's scene, mesh order, row by row, converges further per pass
-    /// than an order by colours.)
-    fn smooth(&mut self, beta: f64) {
-        let x = &mut self.x;
-        let omega = SMOOTHING_OVER_RELAXATION;
-        if beta == 0.0 {
-            // Rigid edges: λ plays no part.
-            for run in &self.runs {
-                let edges = &self.sweep[run.clone()];
-                let count = edges.len();
-                for (((e, lsq), rest), edge) in
-                    self.batch.iter_mut().zip(&mut self.factor_batch).zip(&mut self.rest_batch).zip(edges)
-                {
-                    *e = x[edge.a as usize] - x[edge.b as usize];
-                    *lsq = e.length_squared();
-                    *rest = edge.rest;
-                }
-                // (1 − L/|e|): contiguous, so the square roots and
-                // divisions of the run go in SIMD lanes.
-                for (k, &rest) in self.factor_batch[..count].iter_mut().zip(&self.rest_batch[..count]) {
-                    // A zero-length edge has e = 0, so its (finite) k moves nothing.
-                    *k = (1.0 - rest / k.max(f32::MIN_POSITIVE).sqrt()) * omega;
-                }
-                for ((e, &k), edge) in self.batch.iter().zip(&self.factor_batch).zip(edges) {
-                    let shift = *e * k;
-                    x[edge.a as usize] -= shift * edge.share_a;
-                    x[edge.b as usize] += shift * edge.share_b;
-                }
-            }
-            return;
-        }
-        for edge in &self.sweep {
-            let (a, b, j) = (edge.a as usize, edge.b as usize, edge.edge as usize);
-            let e = x[a] - x[b];
-            let length = e.length();
-            if length <= f32::MIN_POSITIVE {
-                continue;
-            }
-            // μ = (C + βλ)/(w_a + w_b + β); the shares are w/(w_a + w_b + β).
-            let c = f64::from(length) - self.rest[j] + beta * self.lambda[j];
-            self.lambda[j] -= c * f64::from(edge.inverse);
-            let unit = e / length;
-            x[a] -= unit * (c as f32 * edge.share_a);
-            x[b] += unit * (c as f32 * edge.share_b);
-        }
     }
 
     /// Every edge's direction and residual C_j at `x`; returns the
@@ -536,70 +443,6 @@ impl FastProjection {
             )
             .is_ok()
     }
-}
-
-/// Cuts `order` into maximal runs of consecutive edges that share no
-/// particle.
-fn independent_runs(order: &[u32], ends: &[[u32; 2]], particles: usize) -> Vec<std::ops::Range<usize>> {
-    let mut runs = Vec::new();
-    let mut in_run = vec![false; particles];
-    let mut start = 0;
-    for (t, &j) in order.iter().enumerate() {
-        let [a, b] = ends[j as usize];
-        if in_run[a as usize] || in_run[b as usize] {
-            for &k in &order[start..t] {
-                let [c, d] = ends[k as usize];
-                in_run[c as usize] = false;
-                in_run[d as usize] = false;
-            }
-            runs.push(start..t);
-            start = t;
-        }
-        in_run[a as usize] = true;
-        in_run[b as usize] = true;
-    }
-    if start < order.len() {
-        runs.push(start..order.len());
-    }
-    runs
-}
-
-/// One edge of the smoothing passes.
-#[derive(Clone, Copy, Debug)]
-struct SweepEdge {
-    a: u32,
-    b: u32,
-    /// Its index among the edges (for λ).
-    edge: u32,
-    /// L_j, metres.
-    rest: f32,
-    /// w_a/(w_a + w_b + β) and w_b/(…) this substep (0 with both ends fixed).
-    share_a: f32,
-    share_b: f32,
-    /// 1/(w_a + w_b + β) (0 with both ends fixed).
-    inverse: f32,
-}
-
-/// The order of the smoothing passes. On a grid: row by row from the
-/// first, and within a row its horizontal edges of even columns, then of
-/// odd columns, then the vertical edges down to the next row. The sweep
-/// still runs down the cloth as the mesh's order does (measured: a global
-/// colour order, all of one colour before the next, converges worse), but
-/// no two consecutive edges share a particle, so a projection need not wait
-/// for the last one's result. Other meshes: mesh order.
-fn sweep_order(mesh: &ClothMesh, ends: &[[u32; 2]]) -> Vec<u32> {
-    let Some(shape) = mesh.grid() else {
-        return (0..ends.len() as u32).collect();
-    };
-    let key = |&[a, b]: &[u32; 2]| {
-        let (lo, hi) = (a.min(b), a.max(b));
-        let (row, column) = (lo / shape.columns, lo % shape.columns);
-        let group = if hi - lo == 1 && hi / shape.columns == row { column % 2 } else { 2 };
-        (row, group, column)
-    };
-    let mut order: Vec<u32> = (0..ends.len() as u32).collect();
-    order.sort_by_key(|&j| key(&ends[j as usize]));
-    order
 }
 
 /// faer's workspace, sized once (a clone gets its own).
