@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use crate::export::ExportError;
 use crate::sim::{SimError, Simulation, Strain};
 
 /// The figures `drape run` prints and writes to `--out`.
@@ -100,27 +101,45 @@ pub enum RunError {
     /// The trace could not be written.
     #[error("cannot write the trace: {0}")]
     Trace(#[source] std::io::Error),
+    /// The export could not be written.
+    #[error(transparent)]
+    Export(#[from] ExportError),
+}
+
+/// Where a run sends its frames, and how often.
+pub struct FrameOutput<'a> {
+    /// Called with the simulation at step 0, after every `every`-th step,
+    /// and after the last step if that is not a multiple of `every` (so the
+    /// last frame is always the run's end state).
+    pub write: &'a mut dyn FnMut(&Simulation) -> Result<(), RunError>,
+    /// Steps between frames, ≥ 1.
+    pub every: u64,
+}
+
+/// The number of frames a run of `steps` steps gives with one every
+/// `every` steps: step 0, each multiple of `every`, and the last step.
+pub fn frame_count(steps: u64, every: u64) -> u64 {
+    let every = every.max(1);
+    1 + steps / every + u64::from(!steps.is_multiple_of(every))
 }
 
 /// Advances `sim` by `steps` steps.
 ///
-/// With `trace = Some((writer, every))`, writes the CSV header, the initial
-/// state and then every `every`-th step's positions (see [`write_trace_rows`]).
-/// `progress` is called with the number of steps done so far, about a hundred
-/// times over the run.
+/// With `output`, hands it the frames [`FrameOutput`] describes (a trace, an
+/// export). `progress` is called with the number of steps done so far,
+/// about a hundred times over the run.
 pub fn run(
     sim: &mut Simulation,
     steps: u64,
-    mut trace: Option<(&mut dyn Write, u64)>,
+    mut output: Option<FrameOutput<'_>>,
     mut progress: impl FnMut(u64),
 ) -> Result<RunSummary, RunError> {
-    let chunk = match &trace {
-        Some((_, every)) => (*every).max(1),
+    let chunk = match &output {
+        Some(o) => o.every.max(1),
         None => (steps / 100).max(1),
     };
-    if let Some((w, _)) = trace.as_mut() {
-        writeln!(w, "step,time,particle,x,y,z").map_err(RunError::Trace)?;
-        write_trace_rows(*w, sim).map_err(RunError::Trace)?;
+    if let Some(o) = output.as_mut() {
+        (o.write)(sim)?;
     }
     let mut stepping = Duration::ZERO;
     let mut done = 0;
@@ -136,10 +155,9 @@ pub fn run(
             newton += sim.last_projection().map_or(0, |r| u64::from(r.iterations));
         }
         done += n;
-        if let Some((w, every)) = trace.as_mut()
-            && done % (*every).max(1) == 0
-        {
-            write_trace_rows(*w, sim).map_err(RunError::Trace)?;
+        if let Some(o) = output.as_mut() {
+            // A frame on each multiple of `every`, and at the end.
+            (o.write)(sim)?;
         }
         progress(done);
     }
@@ -163,6 +181,9 @@ pub fn run(
         kinetic_energy: sim.kinetic_energy(),
     })
 }
+
+/// The CSV header of a trace.
+pub const TRACE_HEADER: &str = "step,time,particle,x,y,z";
 
 /// One CSV row per particle: `step,time,particle,x,y,z`.
 pub fn write_trace_rows(w: &mut dyn Write, sim: &Simulation) -> std::io::Result<()> {

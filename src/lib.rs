@@ -3,6 +3,7 @@
 //!
 //! - [`sim`]: the solver (no GPU): Verlet integration, bar relaxation, metrics.
 //! - [`scene`]: scene files (TOML) and meshes (OBJ) → a [`sim::Simulation`].
+//! - [`export`]: recorded frames, and glTF / OBJ files of them.
 //! - [`headless`]: the `drape run` command's work, for the CLI and for tests.
 //! - [`render`] (feature `viewer`): the wgpu renderer, windowless.
 //! - [`ui`] (feature `viewer`): the egui panel, returning commands.
@@ -12,6 +13,7 @@
 
 #[cfg(feature = "viewer")]
 pub mod app;
+pub mod export;
 pub mod headless;
 #[cfg(feature = "viewer")]
 pub mod render;

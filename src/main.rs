@@ -28,13 +28,13 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Run a scene headless and report strain, energy and speed.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
     /// List the bundled scenes.
     Scenes,
     /// Run a scene headless and write one rendered frame as a PNG (needs no
     /// display: a software rasteriser will do).
     #[cfg(feature = "viewer")]
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// List the graphics adapters wgpu can see and which one drape uses.
     #[cfg(feature = "viewer")]
     Adapters,
@@ -172,7 +172,12 @@ struct RunArgs {
     /// Write a CSV trace: step, time, particle, x, y, z.
     #[arg(long)]
     trace: Option<PathBuf>,
-    /// Trace every K steps.
+    /// Export the motion: PATH ending in .glb writes one animated glTF file
+    /// (morph targets keyed in time); PATH containing {frame} writes one
+    /// OBJ per frame (e.g. out/cloth_{frame}.obj).
+    #[arg(long, value_name = "PATH")]
+    export: Option<PathBuf>,
+    /// Trace and export every K-th step (and always the first and last).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     every: u64,
     /// No progress bar.
@@ -201,9 +206,17 @@ struct RenderArgs {
     steps: u64,
     #[command(flatten)]
     overrides: SolverOverrides,
-    /// The PNG to write.
+    /// The PNG to write; with --frames, a path containing {frame}
+    /// (e.g. frames/{frame}.png), replaced by the zero-padded frame number.
     #[arg(long, default_value = "frame.png")]
     out: PathBuf,
+    /// Write a sequence of N PNGs instead of one: the first after --steps
+    /// steps, then one every --every steps, the camera fixed.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    frames: Option<u64>,
+    /// With --frames: steps between frames.
+    #[arg(long, default_value_t = 1, requires = "frames", value_parser = clap::value_parser!(u64).range(1..))]
+    every: u64,
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "800x600", value_parser = parse_size)]
     size: (u32, u32),
@@ -253,13 +266,13 @@ fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
     let result = match cli.command {
-        Some(Command::Run(args)) => run(args),
+        Some(Command::Run(args)) => run(*args),
         Some(Command::Scenes) => {
             list_scenes();
             Ok(())
         }
         #[cfg(feature = "viewer")]
-        Some(Command::Render(args)) => render(args),
+        Some(Command::Render(args)) => render(*args),
         #[cfg(feature = "viewer")]
         Some(Command::Adapters) => {
             print!("{}", drape::render::gpu::adapters_report());
@@ -277,10 +290,11 @@ fn main() -> ExitCode {
 }
 
 fn list_scenes() {
+    let width = scene::BUNDLED.iter().map(|b| b.name.len()).max().unwrap_or(0);
     for b in scene::BUNDLED {
         match scene::load(b.name) {
-            Ok(s) => println!("{:<12} {}", b.name, s.description),
-            Err(e) => println!("{:<12} (broken: {e})", b.name),
+            Ok(s) => println!("{:<width$}  {}", b.name, s.description),
+            Err(e) => println!("{:<width$}  (broken: {e})", b.name),
         }
     }
 }
@@ -298,10 +312,32 @@ fn load_scene(name: &str, overrides: &SolverOverrides) -> anyhow::Result<(scene:
 fn run(args: RunArgs) -> anyhow::Result<()> {
     let (scene, mut sim) = load_scene(&args.scene, &args.overrides)?;
     let mut trace = match &args.trace {
-        Some(path) => Some(BufWriter::new(
-            File::create(path).with_context(|| format!("cannot create trace file {}", path.display()))?,
-        )),
+        Some(path) => {
+            let mut w = BufWriter::new(
+                File::create(path).with_context(|| format!("cannot create trace file {}", path.display()))?,
+            );
+            writeln!(w, "{}", headless::TRACE_HEADER).context("cannot write the trace")?;
+            Some(w)
+        }
         None => None,
+    };
+    // Checked before the run: a path that names no format, or glTF of a
+    // mesh without triangles, fails at once.
+    let frames = headless::frame_count(args.steps, args.every);
+    let mut exporter = match &args.export {
+        Some(path) => {
+            Some(drape::export::Exporter::new(path, sim.mesh().clone(), usize::try_from(frames).unwrap_or(usize::MAX))?)
+        }
+        None => None,
+    };
+    let mut write_frame = |sim: &drape::sim::Simulation| -> Result<(), headless::RunError> {
+        if let Some(w) = trace.as_mut() {
+            headless::write_trace_rows(w, sim).map_err(headless::RunError::Trace)?;
+        }
+        if let Some(e) = exporter.as_mut() {
+            e.frame(sim)?;
+        }
+        Ok(())
     };
     // The bar appears on a terminal once a run has taken a second; never
     // when stderr is redirected or with --quiet.
@@ -320,19 +356,33 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         }
         bar.set_position(done);
     };
-    let trace_arg = trace.as_mut().map(|w| (w as &mut dyn Write, args.every));
-    let summary = headless::run(&mut sim, args.steps, trace_arg, progress)
-        .with_context(|| format!("running {}", scene.source))?;
+    let output = (args.trace.is_some() || args.export.is_some())
+        .then_some(headless::FrameOutput { write: &mut write_frame, every: args.every });
+    let summary =
+        headless::run(&mut sim, args.steps, output, progress).with_context(|| format!("running {}", scene.source))?;
     bar.finish_and_clear();
     if let Some(mut w) = trace {
         w.flush().context("cannot write the trace")?;
     }
+    let exported = exporter.map(drape::export::Exporter::finish).transpose()?;
     println!("{}: {}", scene.name, scene.source);
     println!("{summary}");
     if let Some(path) = &args.out {
         let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         headless::write_state_json(BufWriter::new(file), &scene.name, &sim, &summary)
             .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if let Some(report) = exported {
+        if report.files == 1 {
+            println!("exported {} frames → {}", report.frames, report.first.display());
+        } else {
+            println!(
+                "exported {} frames → {} files, the first {}",
+                report.frames,
+                report.files,
+                report.first.display()
+            );
+        }
     }
     Ok(())
 }
@@ -358,16 +408,45 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
     }
     let (width, height) = args.size;
     let camera = render::start_camera(&hint, &sim, width as f32 / height as f32);
-    let image = drape::app::snapshot(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
-    render::write_png(&args.out, &image).with_context(|| format!("cannot write {}", args.out.display()))?;
+    let Some(frames) = args.frames else {
+        let image = drape::app::snapshot(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
+        render::write_png(&args.out, &image).with_context(|| format!("cannot write {}", args.out.display()))?;
+        println!(
+            "{}: {} steps ({:.3} s simulated), {}x{} → {}",
+            scene.name,
+            sim.steps(),
+            sim.time(),
+            width,
+            height,
+            args.out.display()
+        );
+        return Ok(());
+    };
+    let pattern = args.out.to_string_lossy().into_owned();
+    anyhow::ensure!(
+        pattern.contains(drape::export::FRAME_PLACEHOLDER),
+        "--frames writes one PNG per frame, so --out must contain {{frame}} (e.g. frames/{{frame}}.png), not '{pattern}'"
+    );
+    let digits = drape::export::frame_digits(usize::try_from(frames).unwrap_or(usize::MAX));
+    for k in 0..frames {
+        if k > 0 {
+            sim.advance(args.every).with_context(|| format!("running {}", scene.source))?;
+        }
+        let image = drape::app::snapshot(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
+        let path = drape::export::frame_path(&pattern, k as usize, digits);
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+        render::write_png(&path, &image).with_context(|| format!("cannot write {}", path.display()))?;
+    }
     println!(
-        "{}: {} steps ({:.3} s simulated), {}x{} → {}",
+        "{}: {frames} frames {} steps apart, to {} s simulated, {}x{} → {}",
         scene.name,
-        sim.steps(),
+        args.every,
         sim.time(),
         width,
         height,
-        args.out.display()
+        drape::export::frame_path(&pattern, 0, digits).display()
     );
     Ok(())
 }

@@ -281,6 +281,40 @@ fn render_writes_a_png_of_the_requested_size() {
 
 #[cfg(feature = "viewer")]
 #[test]
+fn render_frames_writes_a_numbered_sequence() {
+    let dir = scratch("render_frames");
+    let pattern = dir.join("seq/{frame}.png");
+    let o = drape(&[
+        "render",
+        "--steps",
+        "0",
+        "--frames",
+        "3",
+        "--every",
+        "10",
+        "--size",
+        "64x48",
+        "--out",
+        pattern.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // Frames at steps 0, 10 and 20; the last at 20 × 0.05 = 1 s.
+    assert!(text(&o.stdout).contains("3 frames 10 steps apart, to 1"), "{}", text(&o.stdout));
+    let read = |k: usize| image::open(dir.join(format!("seq/{k:04}.png"))).unwrap().to_rgba8();
+    let (first, last) = (read(0), read(2));
+    assert_eq!(first.dimensions(), (64, 48));
+    assert!(!dir.join("seq/0003.png").exists());
+    // The camera stays put and the cloth falls and swings: the pictures differ.
+    let changed = first.pixels().zip(last.pixels()).filter(|(a, b)| a != b).count();
+    assert!(changed > 100, "only {changed} pixels changed between frames 0 and 2");
+    // Without {frame} in --out there is nowhere to put the sequence.
+    let o = drape(&["render", "--frames", "2", "--out", dir.join("one.png").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("{frame}"), "{}", text(&o.stderr));
+}
+
+#[cfg(feature = "viewer")]
+#[test]
 fn render_rejects_bad_arguments_with_status_2() {
     for (args, needle) in [
         (&["render", "--size", "0x10"][..], "--size"),

@@ -180,23 +180,7 @@ pub fn place_ground(mesh: &ClothMesh, extent: f32) -> Ground {
     Ground { height, centre: Vec2::new(centre.x, centre.z), major_spacing, radius: 3.0 * extent.max(1e-3) }
 }
 
-/// Area-weighted vertex normals of a triangle mesh; vertices on no
-/// triangle get +y.
-pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]], normals: &mut Vec<Vec3>) {
-    normals.clear();
-    normals.resize(positions.len(), Vec3::ZERO);
-    for &[a, b, c] in triangles {
-        let (a, b, c) = (a as usize, b as usize, c as usize);
-        // The cross product's length is twice the area: larger triangles weigh more.
-        let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
-        normals[a] += n;
-        normals[b] += n;
-        normals[c] += n;
-    }
-    for n in normals.iter_mut() {
-        *n = n.normalize_or(Vec3::Y);
-    }
-}
+pub use crate::sim::mesh::surface::vertex_normals;
 
 /// Positions and normals interleaved for the surface's dynamic buffer.
 pub fn surface_vertices(positions: &[Vec3], normals: &[Vec3], out: &mut Vec<SurfaceVertex>) {

@@ -566,6 +566,19 @@ impl Simulation {
         Ok(())
     }
 
+    /// Sets the clock: steps taken and simulated seconds (the wind and moving
+    /// colliders follow it). With [`Simulation::set_state`], puts the
+    /// simulation back in a recorded state; `steps = 0` makes the next step
+    /// the Euler start again. A negative or non-finite time is refused.
+    pub fn set_clock(&mut self, steps: u64, time: f64) -> Result<(), SimError> {
+        if !(time.is_finite() && time >= 0.0) {
+            return Err(SimError::Param(ParamError::new("time", time, "a finite time ≥ 0 s")));
+        }
+        self.steps = steps;
+        self.time = time;
+        Ok(())
+    }
+
     /// Max and RMS relative strain of the relaxed bars.
     pub fn strain(&self) -> Strain {
         metrics::strain(&self.positions, self.mesh.bars(), &self.fixed)

@@ -19,6 +19,7 @@
 //! a [`MeshError`]; no input makes it panic.
 
 mod grid;
+pub mod surface;
 
 use std::collections::{HashMap, HashSet};
 
