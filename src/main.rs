@@ -46,7 +46,7 @@ struct SolverOverrides {
     /// Relaxation passes per step (0–100000).
     #[arg(long)]
     relaxations: Option<u32>,
-    /// Time step h in seconds (0 < h ≤ 1).
+    /// Time step h in seconds (1e-6 ≤ h ≤ 1).
     #[arg(long)]
     dt: Option<f32>,
     /// Damping δ (0 ≤ δ < 1).

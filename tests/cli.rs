@@ -103,7 +103,8 @@ fn bad_scenes_are_rejected_with_the_key_and_what_is_allowed() {
     let grid = "[grid]\ncolumns = 4\nrows = 4\nspacing = 0.5\n";
     let mesh = |body: &str| format!("[mesh]\n{body}\n");
     let cases: Vec<(&str, String, &[&str])> = vec![
-        ("dt_zero", format!("[solver]\ndt = 0.0\n{grid}"), &["solver.dt", "0 < dt <= 1"]),
+        ("dt_zero", format!("[solver]\ndt = 0.0\n{grid}"), &["solver.dt", "1e-6 <= dt <= 1"]),
+        ("dt_tiny", format!("[solver]\ndt = 1e-30\n{grid}"), &["solver.dt", "1e-6 <= dt <= 1"]),
         ("damping_one", format!("[solver]\ndamping = 1.0\n{grid}"), &["solver.damping", "0 <= damping < 1"]),
         ("mass_negative", format!("[solver]\nmass = -1.0\n{grid}"), &["solver.mass"]),
         ("nan", format!("[solver]\ndt = nan\n{grid}"), &["solver.dt"]),
@@ -111,7 +112,19 @@ fn bad_scenes_are_rejected_with_the_key_and_what_is_allowed() {
         ("no_cloth", "[solver]\ndt = 0.1\n".to_string(), &["exactly one"]),
         ("index", mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[7],[]]"), &["particle 7", "0 to 1"]),
         ("self_bar", mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[0],[]]"), &["itself"]),
-        ("zero_length", mesh("positions = [[0.0,0.0,0.0],[0.0,0.0,0.0]]\nadjacency = [[1],[]]"), &["zero length"]),
+        (
+            "zero_length",
+            mesh("positions = [[0.0,0.0,0.0],[0.0,0.0,0.0]]\nadjacency = [[1],[]]"),
+            &["0.000e0 m long", "at least 1.000e-6 m"],
+        ),
+        // A 1 mm bar 100 m from the origin: f32 spaces positions there 7.6e-6
+        // m apart, under 1 % of the bar; the floor is 1e-4 × 100 m = 1 cm.
+        (
+            "far_short",
+            mesh("positions = [[100.0,0.0,0.0],[100.001,0.0,0.0]]\nadjacency = [[1],[]]"),
+            &["at least 1.000e-2 m", "nearer the origin"],
+        ),
+        ("spacing_tiny", "[grid]\ncolumns = 4\nrows = 4\nspacing = 1e-30\n".to_string(), &["spacing", "1e-6 m"]),
         ("duplicate", mesh("positions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[1,1],[]]"), &["twice"]),
         ("empty", mesh("positions = []\nadjacency = []"), &["no particles"]),
         ("huge", "[grid]\ncolumns = 100000\nrows = 100000\nspacing = 1.0\n".to_string(), &["too many", "16777216"]),
@@ -153,7 +166,7 @@ fn bad_scenes_are_rejected_with_the_key_and_what_is_allowed() {
             format!(
                 "{grid}[[collider]]\nshape = \"plane\"\n[[collider]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = -0.5\n"
             ),
-            &["collider[1].radius", "0 < radius"],
+            &["collider[1].radius", "1e-6 <= radius"],
         ),
         (
             "collider_normal",

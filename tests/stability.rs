@@ -152,6 +152,7 @@ proptest! {
             Just("inf".to_string()), Just("3".to_string()), Just("0.5".to_string()), Just("\"top-row\"".to_string()),
             Just("[1.0, 2.0]".to_string()), Just("[[0, 0]]".to_string()), Just("99999999999".to_string()),
             Just("true".to_string()), Just("\"seed\"".to_string()), Just("[0.0, -9.8, 0.0]".to_string()),
+            Just("1e-30".to_string()), Just("1e-7".to_string()), Just("1e30".to_string()),
         ], 12),
     ) {
         let text = format!(

@@ -13,6 +13,9 @@ use crate::sim::{Collider, Keyframe, MeshShape, Motion, Pose, Shape};
 
 /// Largest accepted collider coordinate or size, metres.
 pub const MAX_EXTENT: f32 = 1e6;
+/// Smallest collider dimension and mesh scale (1 µm, the shortest bar a
+/// cloth may have: nothing smaller can be touched at f32 precision).
+pub const MIN_EXTENT: f32 = crate::sim::mesh::MIN_BAR_LENGTH;
 /// Largest accepted collider speed, m/s.
 pub const MAX_SPEED: f32 = 1e4;
 /// Largest accepted collider spin, rad/s.
@@ -115,10 +118,10 @@ fn required<T: Copy>(i: usize, key: &str, v: Option<T>, what: &str) -> Result<T,
 }
 
 fn length(i: usize, key: &str, v: f32) -> Result<f32, SceneErrorKind> {
-    if v.is_finite() && v > 0.0 && v <= MAX_EXTENT {
+    if v.is_finite() && (MIN_EXTENT..=MAX_EXTENT).contains(&v) {
         Ok(v)
     } else {
-        Err(invalid(i, key, format!("{v} is not allowed: metres, 0 < {key} <= 1e6")))
+        Err(invalid(i, key, format!("{v:e} is not allowed: metres, 1e-6 <= {key} <= 1e6")))
     }
 }
 
@@ -199,8 +202,8 @@ fn build_one(i: usize, t: &ColliderTable, read_obj: &ObjReader) -> Result<Collid
         ShapeName::Mesh => {
             let path = t.path.as_deref().ok_or_else(|| invalid(i, "path", "is missing: a mesh needs path"))?;
             let scale = t.scale.unwrap_or(1.0);
-            if !(scale.is_finite() && scale > 0.0 && scale <= MAX_EXTENT) {
-                return Err(invalid(i, "scale", format!("{scale} is not allowed: 0 < scale <= 1e6")));
+            if !(scale.is_finite() && (MIN_EXTENT..=MAX_EXTENT).contains(&scale)) {
+                return Err(invalid(i, "scale", format!("{scale:e} is not allowed: 1e-6 <= scale <= 1e6")));
             }
             let offset = point(i, "offset", t.offset.unwrap_or([0.0; 3]))?;
             let (vertices, triangles) = read_obj(path).map_err(|e| match e {

@@ -14,6 +14,12 @@ use super::wind::Wind;
 pub const MAX_RELAXATIONS: u32 = 100_000;
 /// Largest accepted time step h, in seconds.
 pub const MAX_DT: f32 = 1.0;
+/// Smallest time step h, seconds (1 µs): XPBD's α·m/h² and the solver's
+/// h² stay well inside f32's range (h² ≥ 1e-12, and ≥ 1e-18 per substep).
+pub const MIN_DT: f32 = 1e-6;
+/// Farthest the seed's gravity force may move a particle in one step, h²/m·|f_g|,
+/// metres (the largest coordinate a mesh may have).
+pub const MAX_STEP_DISPLACEMENT: f32 = 1e6;
 /// Smallest accepted particle mass m, in kilograms.
 pub const MIN_MASS: f32 = 1e-9;
 /// Largest accepted particle mass m, in kilograms.
@@ -65,7 +71,7 @@ pub struct SolverParams {
     pub damping: f32,
     /// h in the seed's equations 1 and 2: the time step, in seconds.
     ///
-    /// Range `0 < h <= 1`, default 0.05 (the seed's 20 steps per simulated
+    /// Range `1e-6 <= h <= 1`, default 0.05 (the seed's 20 steps per simulated
     /// second). A particle falls h²·|f|/m further per step, so large steps
     /// need more relaxations to hold the cloth together.
     pub dt: f32,
@@ -282,13 +288,26 @@ impl SolverParams {
         if !(0.0..1.0).contains(&self.damping) {
             return Err(ParamError::new("damping", self.damping, "0 <= damping < 1"));
         }
-        if !(self.dt > 0.0 && self.dt <= MAX_DT) {
-            return Err(ParamError::new("dt", self.dt, "seconds, 0 < dt <= 1"));
+        if !(self.dt >= MIN_DT && self.dt <= MAX_DT) {
+            return Err(ParamError::new("dt", self.dt, "seconds, 1e-6 <= dt <= 1"));
         }
         if !(MIN_MASS..=MAX_MASS).contains(&self.mass) {
             return Err(ParamError::new("mass", self.mass, "kilograms, 1e-9 <= mass <= 1e9"));
         }
         check_force("gravity", self.gravity)?;
+        // Derived: how far the seed's gravity force moves a particle in one
+        // step, h²/m·|f_g| (a particle of the mean mass when it comes from
+        // a density). Past 1e6 m (the largest coordinate a mesh may have)
+        // the first step leaves f32's useful range.
+        let step = self.gravity.length() * self.dt * self.dt / self.mass;
+        if self.gravity_acceleration.is_none() && self.density.is_none() && !(step <= MAX_STEP_DISPLACEMENT) {
+            let value = format!("{step:e} m per step (h²/m·|f_g| with h = {}, m = {})", self.dt, self.mass);
+            return Err(ParamError::new(
+                "gravity",
+                value,
+                "at most 1e6 m per step; use a smaller dt, a larger mass or a weaker gravity",
+            ));
+        }
         if !(0.0..1.0).contains(&self.tolerance) {
             return Err(ParamError::new("tolerance", self.tolerance, "0 <= tolerance < 1 (0 turns it off)"));
         }
@@ -389,6 +408,11 @@ mod tests {
             (SolverParams { dt: -1.0, ..base.clone() }, "dt"),
             (SolverParams { dt: f32::INFINITY, ..base.clone() }, "dt"),
             (SolverParams { dt: 1.5, ..base.clone() }, "dt"),
+            // h = 1e-30 s would make α·m/h² overflow f32 (the case).
+            (SolverParams { dt: 1e-30, ..base.clone() }, "dt"),
+            (SolverParams { dt: 0.99e-6, ..base.clone() }, "dt"),
+            // 1e9 N on 1e-9 kg for h = 1 s: 1e18 m in the first step.
+            (SolverParams { dt: 1.0, mass: 1e-9, gravity: Vec3::new(0.0, -1e9, 0.0), ..base.clone() }, "gravity"),
             (SolverParams { mass: 0.0, ..base.clone() }, "mass"),
             (SolverParams { mass: f32::NAN, ..base.clone() }, "mass"),
             (SolverParams { gravity: Vec3::new(0.0, f32::NAN, 0.0), ..base.clone() }, "gravity"),

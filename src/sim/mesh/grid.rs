@@ -100,9 +100,12 @@ impl Grid {
         if count > MAX_PARTICLES as u128 {
             return Err(MeshError::TooManyParticles { count });
         }
-        if !(self.spacing.is_finite() && self.spacing > 0.0) {
+        if !(self.spacing.is_finite() && self.spacing >= super::MIN_BAR_LENGTH) {
             return Err(MeshError::BadGrid {
-                what: format!("spacing is {}: it must be a positive number of metres", self.spacing),
+                what: format!(
+                    "spacing is {:e} m: it must be at least 1e-6 m (1 µm), for f32 to resolve the bars' stretch",
+                    self.spacing
+                ),
             });
         }
         let extent = self.spacing * (cols.max(rows) - 1) as f32;

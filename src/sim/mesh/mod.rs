@@ -32,6 +32,13 @@ pub const MAX_PARTICLES: usize = 1 << 24;
 pub const MAX_BARS: usize = 1 << 27;
 /// Largest accepted magnitude of a coordinate, in metres.
 pub const MAX_COORDINATE: f32 = 1e6;
+/// Shortest accepted bar, metres (1 µm): its square, which the solvers
+/// compute, stays a normal f32 with room for strain to be resolved.
+pub const MIN_BAR_LENGTH: f32 = 1e-6;
+/// Shortest accepted bar relative to the mesh's largest coordinate
+/// magnitude: f32 spaces positions 1.2e-7 of their magnitude apart, so a
+/// bar 1e-4 of it is resolved to about 0.1 % of its length.
+pub const MIN_BAR_RATIO: f32 = 1e-4;
 
 pub use grid::{Grid, GridPlane, Pins};
 
@@ -132,13 +139,23 @@ pub enum MeshError {
         /// The particle.
         particle: u32,
     },
-    /// A bar's particles are at the same place, so it has no rest length.
-    #[error("the bar between particles {a} and {b} has zero length; bars need particles at distinct positions")]
-    ZeroLengthBar {
+    /// A bar too short for f32 to resolve its stretch (zero length among
+    /// them): shorter than [`MIN_BAR_LENGTH`] or than [`MIN_BAR_RATIO`] of
+    /// the mesh's largest coordinate magnitude.
+    #[error(
+        "the bar between particles {a} and {b} is {length:.3e} m long: bars must be at least {minimum:.3e} m \
+         (1 µm, and 1e-4 of the mesh's largest coordinate) for f32 to resolve their stretch; \
+         use a coarser spacing, or a mesh nearer the origin"
+    )]
+    ShortBar {
         /// First particle.
         a: u32,
         /// Second particle.
         b: u32,
+        /// Its rest length, metres.
+        length: f32,
+        /// The shortest allowed for this mesh, metres.
+        minimum: f32,
     },
     /// The same bar is given twice.
     #[error("the bar between particles {a} and {b} is given twice; list each bar once per end at most")]
@@ -255,6 +272,8 @@ impl ClothMesh {
         }
         let positions: Vec<Vec3> = positions.into_iter().map(canonical_zero).collect();
 
+        let reach = positions.iter().map(|p| p.abs().max_element()).fold(0.0, f32::max);
+        let minimum = MIN_BAR_LENGTH.max(MIN_BAR_RATIO * reach);
         let mut seen = HashSet::with_capacity(bars.len());
         let mut checked = Vec::with_capacity(bars.len());
         for (i, &(a, b, kind)) in bars.iter().enumerate() {
@@ -270,8 +289,9 @@ impl ClothMesh {
                 Some(&l) => l,
                 None => positions[a as usize].distance(positions[b as usize]),
             };
-            if !(rest_length.is_normal() && rest_length > 0.0) {
-                return Err(MeshError::ZeroLengthBar { a, b });
+            // `!(x >= min)` also refuses NaN.
+            if !(rest_length >= minimum && rest_length.is_finite()) {
+                return Err(MeshError::ShortBar { a, b, length: rest_length, minimum });
             }
             checked.push(Bar { a, b, rest_length, kind });
         }
@@ -572,7 +592,7 @@ mod tests {
         let same = vec![Vec3::ONE, Vec3::ONE];
         assert!(matches!(
             e(ClothMesh::from_adjacency(same, &[], &[vec![1], vec![]], None)),
-            MeshError::ZeroLengthBar { .. }
+            MeshError::ShortBar { .. }
         ));
         let nan = vec![Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0)];
         assert!(matches!(
