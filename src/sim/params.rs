@@ -297,10 +297,11 @@ impl SolverParams {
         check_force("gravity", self.gravity)?;
         // Derived: how far the seed's gravity force moves a particle in one
         // step, h²/m·|f_g| (a particle of the mean mass when it comes from
-        // a density). Past 1e6 m (the largest coordinate a mesh may have)
+        // a density; finite, as each factor was checked). Past 1e6 m (the
+        // largest coordinate a mesh may have)
         // the first step leaves f32's useful range.
         let step = self.gravity.length() * self.dt * self.dt / self.mass;
-        if self.gravity_acceleration.is_none() && self.density.is_none() && !(step <= MAX_STEP_DISPLACEMENT) {
+        if self.gravity_acceleration.is_none() && self.density.is_none() && step > MAX_STEP_DISPLACEMENT {
             let value = format!("{step:e} m per step (h²/m·|f_g| with h = {}, m = {})", self.dt, self.mass);
             return Err(ParamError::new(
                 "gravity",
