@@ -9,6 +9,24 @@
 //! - [`obj`]: one Wavefront OBJ per frame.
 //! - [`Exporter`]: takes frames as a run makes them and writes whichever
 //!   of the two its path asks for: `….glb`, or a path containing `{frame}`.
+//!
+//! ```
+//! use drape::export::Exporter;
+//! use drape::sim::{Grid, Simulation, SolverParams};
+//!
+//! let mut sim = Simulation::new(Grid::default().build()?, SolverParams::default())?;
+//! let path = std::env::temp_dir().join("drape-doc-example.glb");
+//! let mut export = Exporter::new(&path, sim.mesh().clone(), 11)?;
+//! export.frame(&sim)?; // t = 0
+//! for _ in 0..10 {
+//!     sim.advance(5)?;
+//!     export.frame(&sim)?; // every 5 steps, 0.25 s apart
+//! }
+//! let report = export.finish()?;
+//! assert_eq!((report.frames, report.files), (11, 1));
+//! assert!(std::fs::metadata(&path)?.len() > 11 * 600 * 24); // two Vec3 per particle per frame
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod glb;
 pub mod obj;

@@ -295,11 +295,11 @@ impl SolverParams {
             return Err(ParamError::new("mass", self.mass, "kilograms, 1e-9 <= mass <= 1e9"));
         }
         check_force("gravity", self.gravity)?;
-        // Derived: how far the seed's gravity force moves a particle in one
-        // step, h²/m·|f_g| (a particle of the mean mass when it comes from
-        // a density; finite, as each factor was checked). Past 1e6 m (the
-        // largest coordinate a mesh may have)
-        // the first step leaves f32's useful range.
+        // Derived: how far the seed's gravity force moves a particle of mass
+        // m in one step, h²/m·|f_g| (finite, as each factor was checked).
+        // Past 1e6 m, the largest coordinate a mesh may have, the first step
+        // leaves f32's useful range. (With a density or g the masses and the
+        // acceleration are checked by their own ranges.)
         let step = self.gravity.length() * self.dt * self.dt / self.mass;
         if self.gravity_acceleration.is_none() && self.density.is_none() && step > MAX_STEP_DISPLACEMENT {
             let value = format!("{step:e} m per step (h²/m·|f_g| with h = {}, m = {})", self.dt, self.mass);
