@@ -12,7 +12,7 @@ use drape::app::clock::TickingClock;
 use drape::app::{Frame, Viewer, ViewerSettings, WindowRequest};
 use drape::render::OffscreenTarget;
 use drape::scene;
-use drape::ui::UiCommand;
+use drape::ui::{TimeMode, UiCommand};
 use egui::{Event, Key, Modifiers, PointerButton, Pos2, pos2, vec2};
 use glam::Vec3;
 
@@ -31,6 +31,7 @@ fn viewer_for(scene_name: &str, screenshots: &std::path::Path, format: wgpu::Tex
         predictable_ui: true,
         clock: Box::new(TickingClock { next: Duration::ZERO, tick: Duration::from_millis(1) }),
         screenshot_dir: screenshots.to_path_buf(),
+        export_dir: screenshots.join("exports"),
         adapter_label: Some("test adapter".into()),
     };
     Viewer::new(common::gpu().clone(), scene::load(scene_name).unwrap(), format, settings).unwrap()
@@ -158,6 +159,7 @@ fn ctrl_click_pins_and_unpins() {
 #[test]
 fn keys_pause_step_reset_and_quit() {
     let mut v = viewer("flag", &temp_dir("keys"));
+    v.apply(UiCommand::SetTimeMode(TimeMode::StepPerFrame));
     frame(&mut v, 0, vec![]);
     frame(&mut v, 1, vec![]);
     assert_eq!(v.simulation().steps(), 2, "one step per frame");
@@ -332,4 +334,78 @@ fn the_camera_never_orbits_below_the_ground() {
     }
     let eye = v.camera().eye();
     assert!(eye.y > 0.0, "the eye went below the ground: {eye}");
+}
+
+#[test]
+fn the_timeline_scrubs_plays_back_resumes_and_exports() {
+    let dir = temp_dir("timeline");
+    let mut v = viewer("seed", &dir);
+    // Ten frames of one step each: frames at steps 0 to 10.
+    for n in 0..10 {
+        frame(&mut v, n, vec![]);
+    }
+    assert_eq!((v.timeline().recording().len(), v.timeline().cursor()), (11, None));
+    // Three presses of Left in one frame: three frames back, paused there,
+    // the simulation itself in that frame's state.
+    frame(&mut v, 10, vec![key(Key::ArrowLeft), key(Key::ArrowLeft), key(Key::ArrowLeft)]);
+    assert!(v.paused());
+    assert_eq!(v.timeline().cursor(), Some(7));
+    assert_eq!(v.simulation().steps(), 7);
+    assert_eq!(v.simulation().positions(), v.timeline().recording().get(7).unwrap().positions);
+    // Playback at real time from there: the test clock moves 1 ms per
+    // reading, far less than a step of 50 ms, so P starts at frame 7 and a
+    // frame later it is still there; nothing is simulated meanwhile.
+    frame(&mut v, 11, vec![key(Key::P)]);
+    assert!(v.timeline().playing());
+    frame(&mut v, 12, vec![]);
+    assert_eq!((v.timeline().cursor(), v.simulation().steps()), (Some(7), 7));
+    assert_eq!(v.timeline().recording().len(), 11);
+    v.apply(UiCommand::PlayRecording(false));
+    // Scrub to frame 4, then run: the simulation goes on from step 4 and
+    // the frames after it are dropped (with a notice).
+    v.apply(UiCommand::ScrubTo(4));
+    assert_eq!(v.simulation().steps(), 4);
+    frame(&mut v, 13, vec![key(Key::Space)]);
+    assert!(!v.paused());
+    assert_eq!(v.simulation().steps(), 5, "one step on from step 4");
+    let steps: Vec<u64> = v.timeline().recording().frames().iter().map(|f| f.step).collect();
+    assert_eq!(steps, [0, 1, 2, 3, 4, 5]);
+    assert!(v.toasts().iter().any(|t| t.text.contains("6 later frames were dropped")), "{:?}", v.toasts());
+    // Export writes the six frames as a .glb into the export directory.
+    v.apply(UiCommand::ExportRecording);
+    let exported: Vec<_> = std::fs::read_dir(dir.join("exports")).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(exported.len(), 1);
+    let gltf = gltf::Gltf::open(&exported[0]).unwrap();
+    let primitive = gltf.meshes().next().unwrap().primitives().next().unwrap();
+    assert_eq!(primitive.morph_targets().count(), 6);
+    // Reset starts a new recording.
+    v.apply(UiCommand::Reset);
+    assert_eq!(v.timeline().recording().len(), 1);
+}
+
+#[test]
+fn scenes_open_in_real_time_when_the_solver_can_hold_it() {
+    // The seed's scene asks for a step per frame, as the seed's program did.
+    let v = viewer("seed", &temp_dir("mode-seed"));
+    assert_mode(&v, TimeMode::StepPerFrame, "the scene's choice");
+    // The flag leaves it to the viewer, which times its steps with the test
+    // clock (1 ms a reading, so 1 ms a step) against h = 0.01 s: 10 % of
+    // real time, within the half that real time may take.
+    let v = viewer("flag", &temp_dir("mode-flag"));
+    assert_mode(&v, TimeMode::RealTime, "the solver needs 10 %");
+    // The same 1 ms steps of h = 1 ms would take all of it: a step per frame.
+    let text = "[solver]\ndt = 0.001\n[grid]\ncolumns = 4\nrows = 4\nspacing = 0.1\n";
+    let scene = scene::parse(text, &scene::Origin::Text).unwrap();
+    let settings = ViewerSettings {
+        predictable_ui: true,
+        clock: Box::new(TickingClock { next: Duration::ZERO, tick: Duration::from_millis(1) }),
+        ..ViewerSettings::default()
+    };
+    let v = Viewer::new(common::gpu().clone(), scene, OffscreenTarget::FORMAT, settings).unwrap();
+    assert_mode(&v, TimeMode::StepPerFrame, "would need 100 % of the CPU");
+}
+
+fn assert_mode(v: &Viewer, mode: TimeMode, why: &str) {
+    assert_eq!(v.time_mode(), mode);
+    assert!(v.time_reason().contains(why), "{}", v.time_reason());
 }

@@ -1,5 +1,8 @@
 //! [`Stepper`]: how many solver steps a displayed frame takes.
 
+use super::clock::Clock;
+use crate::scene::Playback;
+use crate::sim::Simulation;
 use crate::ui::TimeMode;
 
 /// Longest frame the real-time mode catches up on, seconds: after a stall
@@ -63,9 +66,64 @@ impl Stepper {
     }
 }
 
+/// Largest share of wall time the solver may need for real time to be the
+/// default: the rest is for drawing the frame.
+pub const REAL_TIME_SHARE: f64 = 0.5;
+
+/// The time mode a scene opens in, and a line saying why (the panel shows
+/// it). With [`Playback::Auto`] the choice is measured: `seconds_per_step`
+/// (the solver's time for one step, timed on the scene when it loads) over
+/// h is the share of wall time real time would take; at most
+/// [`REAL_TIME_SHARE`] opens in real time, more in a step per frame.
+pub fn initial_mode(playback: Playback, seconds_per_step: f64, dt: f64) -> (TimeMode, String) {
+    match playback {
+        Playback::RealTime => (TimeMode::RealTime, "real time (the scene's choice)".to_string()),
+        Playback::StepPerFrame => (TimeMode::StepPerFrame, "a step per frame (the scene's choice)".to_string()),
+        Playback::Auto => {
+            let share = seconds_per_step / dt;
+            if share <= REAL_TIME_SHARE {
+                let why = format!("real time: the solver needs {:.0} % of it", 100.0 * share);
+                (TimeMode::RealTime, why)
+            } else {
+                let why = format!("a step per frame: real time would need {:.0} % of the CPU", 100.0 * share);
+                (TimeMode::StepPerFrame, why)
+            }
+        }
+    }
+}
+
+/// Times `steps` solver steps of a copy of `sim` with `clock`: the
+/// fastest, in seconds (the copy's first step may set up caches).
+pub fn time_a_step(sim: &Simulation, clock: &mut dyn Clock, steps: u32) -> f64 {
+    let mut copy = sim.clone();
+    let mut best = f64::INFINITY;
+    for _ in 0..steps {
+        let start = clock.now();
+        if copy.step().is_err() {
+            break;
+        }
+        best = best.min(clock.now().saturating_sub(start).as_secs_f64());
+    }
+    if best.is_finite() { best } else { 0.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_scene_or_the_measured_cost_chooses_the_mode() {
+        // 1 ms steps of h = 0.01 s: 10 % of real time.
+        let (mode, why) = initial_mode(Playback::Auto, 1e-3, 0.01);
+        assert_eq!(mode, TimeMode::RealTime);
+        assert!(why.contains("10 %"), "{why}");
+        // 20 ms steps of h = 0.02 s would need the whole CPU.
+        let (mode, why) = initial_mode(Playback::Auto, 0.02, 0.02);
+        assert_eq!(mode, TimeMode::StepPerFrame);
+        assert!(why.contains("100 %"), "{why}");
+        assert_eq!(initial_mode(Playback::StepPerFrame, 0.0, 0.01).0, TimeMode::StepPerFrame);
+        assert_eq!(initial_mode(Playback::RealTime, 1.0, 0.01).0, TimeMode::RealTime);
+    }
 
     #[test]
     fn step_per_frame_takes_one_step_whatever_the_frame_length() {

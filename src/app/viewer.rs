@@ -7,10 +7,12 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 mod input;
+pub mod timeline;
 
 use egui::Ui;
 use glam::{Vec2, Vec3};
 use input::Drag;
+use timeline::Timeline;
 
 use super::clock::{Clock, WallClock};
 use super::grab::ViewGeometry;
@@ -67,6 +69,8 @@ pub struct ViewerSettings {
     pub clock: Box<dyn Clock>,
     /// Where F12 saves PNGs.
     pub screenshot_dir: PathBuf,
+    /// Where the timeline's *Export .glb* writes.
+    pub export_dir: PathBuf,
     /// What the panel says about the graphics adapter; `None` describes
     /// the real one (tests fix it, since it names the driver version).
     pub adapter_label: Option<String>,
@@ -78,6 +82,7 @@ impl Default for ViewerSettings {
             predictable_ui: false,
             clock: Box::new(WallClock::default()),
             screenshot_dir: PathBuf::from("screenshots"),
+            export_dir: PathBuf::from("exports"),
             adapter_label: None,
         }
     }
@@ -114,6 +119,11 @@ pub struct Viewer {
     pixels_per_point: f32,
     screenshot_dir: PathBuf,
     screenshot_pending: bool,
+    /// Recent frames: scrub, play back, resume, export.
+    timeline: Timeline,
+    /// Why the scene opened in its time mode (the panel says it).
+    time_reason: String,
+    export_dir: PathBuf,
 }
 
 impl std::fmt::Debug for Viewer {
@@ -137,7 +147,9 @@ impl Viewer {
         let egui = egui::Context::default();
         egui.set_theme(egui::Theme::Dark);
         let view = ViewOptions::for_mesh(&scene.mesh);
-        Ok(Self {
+        let mut timeline = Timeline::new(sim.mesh().clone());
+        timeline.restart(&sim);
+        let mut viewer = Self {
             adapter: settings.adapter_label.unwrap_or_else(|| gpu.adapter_summary()),
             gpu,
             camera: OrbitCamera::default(),
@@ -163,7 +175,12 @@ impl Viewer {
             pixels_per_point: 1.0,
             screenshot_dir: settings.screenshot_dir,
             screenshot_pending: false,
-        })
+            timeline,
+            time_reason: String::new(),
+            export_dir: settings.export_dir,
+        };
+        viewer.choose_time_mode();
+        Ok(viewer)
     }
 
     /// The GPU objects the viewer draws with.
@@ -221,6 +238,21 @@ impl Viewer {
     /// What is drawn.
     pub fn view_options(&self) -> &ViewOptions {
         &self.view
+    }
+
+    /// How time advances now.
+    pub fn time_mode(&self) -> crate::ui::TimeMode {
+        self.stepper.mode
+    }
+
+    /// Why the scene opened in its time mode, as the panel says it.
+    pub fn time_reason(&self) -> &str {
+        &self.time_reason
+    }
+
+    /// The timeline: recorded frames and the one shown.
+    pub fn timeline(&self) -> &Timeline {
+        &self.timeline
     }
 
     /// The notices currently up, newest last.
@@ -309,6 +341,7 @@ impl Viewer {
             sim: &self.sim,
             paused: self.paused,
             time_mode: self.stepper.mode,
+            time_reason: &self.time_reason,
             view: self.view,
             vsync: self.vsync,
             stats: &self.stats,
@@ -317,6 +350,20 @@ impl Viewer {
         let state = &mut self.panel;
         egui::Panel::right("panel").resizable(true).default_size(PANEL_WIDTH).min_size(220.0).show(ui, |ui| {
             commands.extend(crate::ui::panel(ui, state, &model));
+        });
+        let recording = self.timeline.recording();
+        let shown = self.timeline.cursor().and_then(|i| recording.get(i));
+        let timeline = crate::ui::timeline::TimelineModel {
+            frames: recording.len(),
+            cursor: self.timeline.cursor(),
+            playing: self.timeline.playing(),
+            first_time: recording.get(0).map_or(0.0, |f| f.time),
+            time: shown.map_or(self.sim.time(), |f| f.time),
+            frame_bytes: recording.frame_bytes(),
+            capacity: recording.capacity(),
+        };
+        egui::Panel::bottom("timeline").show(ui, |ui| {
+            commands.extend(crate::ui::timeline::timeline_bar(ui, &timeline));
         });
         egui::CentralPanel::no_frame().show(ui, |ui| self.view_area(ui));
         let ctx = ui.ctx().clone();
@@ -356,6 +403,14 @@ impl Viewer {
             }
             self.touched();
         }
+        match self.timeline.play_for(frame_seconds, &mut self.sim) {
+            Ok(true) => self.touched(),
+            Ok(false) => {}
+            Err(e) => {
+                self.timeline.stop();
+                self.toast(e.to_string(), true);
+            }
+        }
         let mut steps = 0;
         let mut solver_seconds = 0.0;
         let time_before = self.sim.time();
@@ -371,6 +426,8 @@ impl Viewer {
             self.touched();
             if result.is_err() {
                 self.end_drag();
+            } else if steps > 0 {
+                self.timeline.record(&self.sim);
             }
         }
         let simulated = self.sim.time() - time_before;
@@ -386,21 +443,49 @@ impl Viewer {
                 if self.sim.diverged().is_none() {
                     self.paused = !self.paused;
                     self.stepper.reset();
+                    if !self.paused {
+                        self.resume_timeline();
+                    }
                 }
             }
             UiCommand::Step => {
                 self.paused = true;
                 if self.sim.diverged().is_none() {
-                    let _ = self.sim.step();
+                    self.resume_timeline();
+                    if self.sim.step().is_ok() {
+                        self.timeline.record(&self.sim);
+                    }
                     self.touched();
                 }
             }
+            UiCommand::ScrubTo(index) => {
+                self.paused = true;
+                self.stepper.reset();
+                if let Err(e) = self.timeline.scrub(index, &mut self.sim) {
+                    self.toast(e.to_string(), true);
+                }
+                self.touched();
+            }
+            UiCommand::PlayRecording(play) => {
+                if play {
+                    self.paused = true;
+                    self.stepper.reset();
+                    if let Err(e) = self.timeline.play(&mut self.sim) {
+                        self.toast(e.to_string(), true);
+                    }
+                    self.touched();
+                } else {
+                    self.timeline.stop();
+                }
+            }
+            UiCommand::ExportRecording => self.export_recording(),
             UiCommand::Reset => {
                 self.end_drag();
                 self.sim.reset();
                 // Colliders moved by hand go back where the scene puts them.
                 self.sim.set_colliders(self.scene.colliders.clone());
                 self.stepper.reset();
+                self.timeline.restart(&self.sim);
                 self.touched();
             }
             UiCommand::LoadScene(name) => self.load_scene(&name),
@@ -418,6 +503,9 @@ impl Viewer {
             UiCommand::SetSolver(kind) => self.sim.set_solver(kind),
             UiCommand::SetView(view) => self.view = view,
             UiCommand::SetTimeMode(mode) => {
+                if mode != self.stepper.mode {
+                    self.time_reason = "chosen in the panel".to_string();
+                }
                 self.stepper.mode = mode;
                 self.stepper.reset();
             }
@@ -430,6 +518,43 @@ impl Viewer {
             UiCommand::Quit => return Some(WindowRequest::Quit),
         }
         None
+    }
+
+    /// Opens the scene in real time or a step per frame, as it asks or as
+    /// the solver's measured speed allows.
+    fn choose_time_mode(&mut self) {
+        let seconds = match self.scene.playback {
+            scene::Playback::Auto => super::stepper::time_a_step(&self.sim, self.clock.as_mut(), 3),
+            _ => 0.0,
+        };
+        let (mode, why) = super::stepper::initial_mode(self.scene.playback, seconds, f64::from(self.sim.params().dt));
+        self.stepper.mode = mode;
+        self.stepper.reset();
+        self.time_reason = why;
+    }
+
+    /// The simulation runs on from the frame shown: later frames go.
+    fn resume_timeline(&mut self) {
+        let from = self.sim.time();
+        let dropped = self.timeline.resume();
+        if dropped > 0 {
+            self.toast(format!("resumed from {from:.2} s: the {dropped} later frames were dropped"), false);
+        }
+    }
+
+    /// Writes the recorded frames as `exports/drape-<scene>-<time>.glb`.
+    fn export_recording(&mut self) {
+        let name: String =
+            self.scene.name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect();
+        let path = self.export_dir.join(format!("drape-{name}-{}.glb", timestamp()));
+        let recording = self.timeline.recording();
+        match crate::export::glb::write_file(&path, recording) {
+            Ok(()) => {
+                let frames = recording.len();
+                self.toast(format!("exported {frames} frames to {}", path.display()), false);
+            }
+            Err(e) => self.toast(format!("export failed: {e}"), true),
+        }
     }
 
     fn reset_camera(&mut self) {
@@ -447,10 +572,12 @@ impl Viewer {
                 self.view = ViewOptions { strain_scale: self.view.strain_scale, ..ViewOptions::for_mesh(&scene.mesh) };
                 self.scene = scene;
                 self.sim = sim;
+                self.timeline = Timeline::new(self.sim.mesh().clone());
+                self.timeline.restart(&self.sim);
                 self.renderer.update(&self.sim);
                 self.renderer.set_highlight(None);
                 self.stats.clear();
-                self.stepper.reset();
+                self.choose_time_mode();
                 self.reset_camera();
                 self.sim_changed = false;
                 self.strain = None;

@@ -129,15 +129,41 @@ impl WindowSurface {
     }
 }
 
+/// Smallest window, logical points.
+const MIN_SIZE: (f64, f64) = (480.0, 320.0);
+/// Share of the monitor the window opens at, each way.
+const MONITOR_SHARE: f64 = 0.8;
+/// Largest window it opens at, logical points: beyond it a bigger window
+/// only costs frame rate (software rasterisers draw every pixel).
+const MAX_SIZE: (f64, f64) = (1600.0, 1000.0);
+
+/// The window's size at opening, in logical points: 80 % of the monitor
+/// (`(width, height, scale factor)` in physical pixels) each way, at most
+/// 1600 × 1000 and at least the minimum; 1280 × 800 when the monitor is
+/// unknown. (winit 0.30 does not report the work area without the
+/// taskbar; 80 % leaves room for one.)
+fn initial_size(monitor: Option<(u32, u32, f64)>) -> LogicalSize<f64> {
+    let Some((width, height, scale)) = monitor.filter(|m| m.0 > 0 && m.1 > 0 && m.2 > 0.0) else {
+        return LogicalSize::new(1280.0, 800.0);
+    };
+    let fit = |physical: u32, max: f64, min: f64| (MONITOR_SHARE * f64::from(physical) / scale).min(max).max(min);
+    LogicalSize::new(fit(width, MAX_SIZE.0, MIN_SIZE.0), fit(height, MAX_SIZE.1, MIN_SIZE.1))
+}
+
 impl App {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<Running, AppError> {
         let Some(scene) = self.scene.take() else {
             return Err(AppError::Window("the viewer was started twice".into()));
         };
+        let monitor = event_loop.primary_monitor().or_else(|| event_loop.available_monitors().next());
+        let size = initial_size(monitor.map(|m| {
+            let s = m.size();
+            (s.width, s.height, m.scale_factor())
+        }));
         let attributes = Window::default_attributes()
             .with_title(format!("drape — {}", scene.name))
-            .with_inner_size(LogicalSize::new(1280.0, 800.0))
-            .with_min_inner_size(LogicalSize::new(480.0, 320.0));
+            .with_inner_size(size)
+            .with_min_inner_size(LogicalSize::new(MIN_SIZE.0, MIN_SIZE.1));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| AppError::Window(e.to_string()))?);
         let descriptor =
             wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(event_loop.owned_display_handle()));
@@ -292,5 +318,24 @@ impl ApplicationHandler for App {
             Some(at) => event_loop.set_control_flow(ControlFlow::WaitUntil(at)),
             None => event_loop.set_control_flow(ControlFlow::Wait),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_window_fits_the_monitor() {
+        // A 1366 × 768 laptop at scale 1: 80 % is 1092.8 × 614.4 points.
+        let s = initial_size(Some((1366, 768, 1.0)));
+        assert!((s.width - 1092.8).abs() < 1e-9 && (s.height - 614.4).abs() < 1e-9, "{s:?}");
+        // A 4K monitor at scale 2 is 1920 × 1080 points: 1536 × 864; at
+        // scale 1, 80 % is 3072 × 1728, capped at 1600 × 1000.
+        assert_eq!(initial_size(Some((3840, 2160, 2.0))), LogicalSize::new(1536.0, 864.0));
+        assert_eq!(initial_size(Some((3840, 2160, 1.0))), LogicalSize::new(1600.0, 1000.0));
+        // A tiny screen still gets the minimum; an unknown one 1280 × 800.
+        assert_eq!(initial_size(Some((400, 300, 1.0))), LogicalSize::new(480.0, 320.0));
+        assert_eq!(initial_size(None), LogicalSize::new(1280.0, 800.0));
     }
 }

@@ -42,6 +42,18 @@ pub struct SceneFile {
     /// `[[collider]]`: any number.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderTable>,
+    /// `[viewer]`.
+    #[serde(default)]
+    pub viewer: ViewerTable,
+}
+
+/// `[viewer]`: how the viewer shows the scene.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ViewerTable {
+    /// `"auto"` (default), `"real-time"` or `"step-per-frame"`.
+    #[serde(default)]
+    pub time: super::Playback,
 }
 
 /// `[solver]`: every key optional, defaulting to the seed's value.
@@ -318,6 +330,7 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
         solver: file.solver.method,
         camera,
         colliders,
+        playback: file.viewer.time,
     })
 }
 

@@ -43,6 +43,20 @@ impl Default for CameraHint {
     }
 }
 
+/// How the viewer advances time in a scene (`[viewer] time`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Playback {
+    /// Real time where the solver can hold it, else a step per frame: the
+    /// viewer times a few steps when it loads the scene. The default.
+    #[default]
+    Auto,
+    /// Simulated time follows the clock.
+    RealTime,
+    /// One step of h per displayed frame, as the seed's program did.
+    StepPerFrame,
+}
+
 /// A loaded, validated scene: ready to become a [`Simulation`].
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -62,6 +76,8 @@ pub struct Scene {
     pub camera: CameraHint,
     /// What the cloth can touch.
     pub colliders: Vec<Collider>,
+    /// How the viewer advances time.
+    pub playback: Playback,
 }
 
 impl Scene {

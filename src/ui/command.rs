@@ -38,6 +38,13 @@ pub enum UiCommand {
     SetTimeMode(TimeMode),
     /// Wait for the display's refresh (true) or present as fast as possible.
     SetVsync(bool),
+    /// Show recorded frame `n` (0 the oldest kept), pausing the simulation
+    /// in that frame's state.
+    ScrubTo(usize),
+    /// Play the recorded frames back at real time (true), or stop (false).
+    PlayRecording(bool),
+    /// Write the recorded frames as a .glb file.
+    ExportRecording,
     /// Move the camera so the whole cloth is in view.
     FitCamera,
     /// Back to the scene's starting view.
@@ -56,6 +63,8 @@ pub const KEY_BINDINGS: &[(&str, &str)] = &[
     ("F", "fit the cloth in view"),
     ("Home", "back to the scene's view"),
     ("F12", "screenshot into screenshots/"),
+    ("P", "play the recorded frames / stop"),
+    ("Left / Right", "previous / next recorded frame (pauses)"),
     ("Esc", "quit"),
 ];
 

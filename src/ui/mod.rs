@@ -6,6 +6,7 @@
 //! - [`mod@panel`]: the side panel.
 //! - [`solver_controls`]: the solver part of it.
 //! - [`stats`]: timings and strain over time.
+//! - [`timeline`]: the timeline bar (scrub, play back, export).
 //! - [`overlay`]: strain legend, blow-up message, toasts.
 //! - [`painter`]: drawing egui's output with egui-wgpu.
 
@@ -16,6 +17,7 @@ pub mod painter;
 pub mod panel;
 pub mod solver_controls;
 pub mod stats;
+pub mod timeline;
 
 pub use command::{KEY_BINDINGS, MOUSE_BINDINGS, TimeMode, UiCommand};
 pub use painter::{UiFrame, UiPainter};

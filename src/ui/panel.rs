@@ -26,6 +26,8 @@ pub struct PanelModel<'a> {
     pub paused: bool,
     /// How time advances.
     pub time_mode: TimeMode,
+    /// Why the scene opened in that mode.
+    pub time_reason: &'a str,
     /// What is drawn.
     pub view: ViewOptions,
     /// Whether presentation waits for vsync; `None` when there is no window.
@@ -120,6 +122,7 @@ fn scene_section(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) ->
     if mode != model.time_mode {
         commands.push(UiCommand::SetTimeMode(mode));
     }
+    ui.label(RichText::new(model.time_reason).small().weak());
     ui.label(format!("step {} · t = {:.2} s", model.sim.steps(), model.sim.time()));
     commands
 }

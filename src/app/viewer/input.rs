@@ -45,8 +45,23 @@ impl Viewer {
             (Key::F12, UiCommand::Screenshot),
             (Key::Escape, UiCommand::Quit),
         ];
+        let last = self.timeline.recording().len().saturating_sub(1);
+        let shown = self.timeline.cursor().unwrap_or(last);
+        let playing = self.timeline.playing();
         ctx.input_mut(|input| {
-            bindings.into_iter().filter(|(key, _)| input.consume_key(Modifiers::NONE, *key)).map(|(_, c)| c).collect()
+            let mut commands: Vec<UiCommand> = bindings
+                .into_iter()
+                .chain([(Key::P, UiCommand::PlayRecording(!playing))])
+                .filter(|(key, _)| input.consume_key(Modifiers::NONE, *key))
+                .map(|(_, c)| c)
+                .collect();
+            // Every press of an arrow counts, however many arrive in a frame.
+            let back = input.count_and_consume_key(Modifiers::NONE, Key::ArrowLeft);
+            let on = input.count_and_consume_key(Modifiers::NONE, Key::ArrowRight);
+            if back + on > 0 {
+                commands.push(UiCommand::ScrubTo((shown + on).saturating_sub(back).min(last)));
+            }
+            commands
         })
     }
 
