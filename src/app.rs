@@ -13,6 +13,7 @@ pub mod grab;
 pub mod snapshot;
 pub mod stepper;
 pub mod viewer;
+pub mod watch;
 pub mod window;
 
 pub use snapshot::snapshot;

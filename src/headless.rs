@@ -47,6 +47,8 @@ pub struct RunSummary {
     pub newton: Option<f64>,
     /// Kinetic energy of the free particles at the end, joules.
     pub kinetic_energy: f64,
+    /// What is absurd about the end state, if anything ([`crate::sim::health`]).
+    pub warning: Option<String>,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -77,7 +79,11 @@ impl std::fmt::Display for RunSummary {
         if let Some(iterations) = self.newton {
             writeln!(f, "newton iterations    {iterations:.2} per step, mean (inextensible)")?;
         }
-        write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)
+        write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)?;
+        if let Some(warning) = &self.warning {
+            write!(f, "\nwarning: {warning}")?;
+        }
+        Ok(())
     }
 }
 
@@ -179,6 +185,7 @@ pub fn run(
         edge_strain_over_run: (history.mean_max(), history.worst_max),
         newton: sim.last_projection().map(|_| newton as f64 / steps.max(1) as f64),
         kinetic_energy: sim.kinetic_energy(),
+        warning: crate::sim::health::check(sim, sim.edge_strain().max).map(|a| a.to_string()),
     })
 }
 

@@ -148,7 +148,18 @@ fn ctrl_click_pins_and_unpins() {
     let at = v.particle_on_screen(particle).unwrap();
     let click = |pressed| press(at, PointerButton::Primary, pressed, Modifiers::CTRL);
     let ctrl = Event::ModifiersChanged(Modifiers::CTRL);
-    frame(&mut v, 1, vec![ctrl.clone(), Event::PointerMoved(at), click(true)]);
+    // Hovering shows which particle a click takes, before the click.
+    frame(&mut v, 1, vec![ctrl.clone(), Event::PointerMoved(at)]);
+    assert_eq!(v.hovered_particle(), Some(particle));
+    // Every particle of the cloth, clicked where it is drawn, is the one
+    // picked (not a neighbour): the seed's 600, seen from the scene's view.
+    for i in 0..v.simulation().positions().len() {
+        if let Some(p) = v.particle_on_screen(i) {
+            frame(&mut v, 1, vec![Event::PointerMoved(p)]);
+            assert_eq!(v.hovered_particle(), Some(i), "particle {i} at {p:?}");
+        }
+    }
+    frame(&mut v, 1, vec![Event::PointerMoved(at), click(true)]);
     frame(&mut v, 2, vec![click(false)]);
     assert!(v.simulation().fixed()[particle]);
     frame(&mut v, 3, vec![click(true)]);
@@ -392,7 +403,7 @@ fn scenes_open_in_real_time_when_the_solver_can_hold_it() {
     // clock (1 ms a reading, so 1 ms a step) against h = 0.01 s: 10 % of
     // real time, within the half that real time may take.
     let v = viewer("flag", &temp_dir("mode-flag"));
-    assert_mode(&v, TimeMode::RealTime, "the solver needs 10 %");
+    assert_mode(&v, TimeMode::RealTime, "the solver needs 10.0 %");
     // The same 1 ms steps of h = 1 ms would take all of it: a step per frame.
     let text = "[solver]\ndt = 0.001\n[grid]\ncolumns = 4\nrows = 4\nspacing = 0.1\n";
     let scene = scene::parse(text, &scene::Origin::Text).unwrap();
@@ -408,4 +419,50 @@ fn scenes_open_in_real_time_when_the_solver_can_hold_it() {
 fn assert_mode(v: &Viewer, mode: TimeMode, why: &str) {
     assert_eq!(v.time_mode(), mode);
     assert!(v.time_reason().contains(why), "{}", v.time_reason());
+}
+
+#[test]
+fn saving_the_scene_file_reloads_it_and_keeps_the_camera() {
+    let dir = temp_dir("watch");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("cloth.toml");
+    let grid = |columns: u32| format!("[grid]\ncolumns = {columns}\nrows = 4\nspacing = 0.1\n");
+    std::fs::write(&file, grid(4)).unwrap();
+    let settings = ViewerSettings {
+        predictable_ui: true,
+        clock: Box::new(TickingClock { next: Duration::ZERO, tick: Duration::from_millis(1) }),
+        screenshot_dir: dir.clone(),
+        ..ViewerSettings::default()
+    };
+    let scene = scene::load(file.to_str().unwrap()).unwrap();
+    let mut v = Viewer::new(common::gpu().clone(), scene, OffscreenTarget::FORMAT, settings).unwrap();
+    frame(&mut v, 0, vec![]);
+    // Orbit away from the scene's view, then save the file with 6 columns.
+    let sky = pos2(20.0, 20.0);
+    frame(&mut v, 1, vec![Event::PointerMoved(sky), press(sky, PointerButton::Primary, true, Modifiers::NONE)]);
+    frame(&mut v, 2, vec![Event::PointerMoved(sky + vec2(60.0, 0.0))]);
+    frame(&mut v, 3, vec![press(sky + vec2(60.0, 0.0), PointerButton::Primary, false, Modifiers::NONE)]);
+    let camera = *v.camera();
+    std::fs::write(&file, grid(6)).unwrap();
+    // The watch reports within milliseconds; allow 5 s on a loaded machine.
+    let mut n = 4;
+    let start = std::time::Instant::now();
+    while v.simulation().positions().len() != 24 && start.elapsed() < Duration::from_secs(5) {
+        std::thread::sleep(Duration::from_millis(20));
+        frame(&mut v, n, vec![]);
+        n += 1;
+    }
+    assert_eq!(v.simulation().positions().len(), 24, "6 × 4 after the save");
+    assert_eq!(*v.camera(), camera, "the camera stays where the user put it");
+    assert!(v.toasts().iter().any(|t| t.text.contains("reloaded")), "{:?}", v.toasts());
+    // A save that breaks the file keeps the scene and says what is wrong.
+    std::fs::write(&file, "[grid]\ncolumns = 0\nrows = 4\nspacing = 0.1\n").unwrap();
+    let start = std::time::Instant::now();
+    while !v.toasts().iter().any(|t| t.error) && start.elapsed() < Duration::from_secs(5) {
+        std::thread::sleep(Duration::from_millis(20));
+        frame(&mut v, n, vec![]);
+        n += 1;
+    }
+    assert!(v.toasts().iter().any(|t| t.error && t.text.contains("columns")), "{:?}", v.toasts());
+    assert_eq!(v.simulation().positions().len(), 24);
 }

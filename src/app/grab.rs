@@ -22,11 +22,15 @@ pub struct ViewGeometry {
 
 /// The particle under `cursor` (pixels from the viewport's top-left).
 ///
-/// With triangles: the vertex nearest the cursor, on screen, of the nearest
-/// triangle the cursor's ray hits — so a particle behind the cloth is never
-/// picked through it. Otherwise (a bar-only mesh, or the cursor just off the
-/// cloth's edge): the particle nearest the cursor on screen within
-/// [`PICK_RADIUS_PIXELS`], the nearer to the eye on a tie.
+/// The particle drawn nearest the cursor on screen among those the eye can
+/// see there: the corners of the nearest triangle the cursor's ray hits,
+/// and every particle within [`PICK_RADIUS_PIXELS`] of the cursor that is
+/// not behind that triangle (a particle's marker, a pin's ball, may reach
+/// past the triangles around it). So a click on a particle picks that
+/// particle, never a neighbour whose triangle lies under the cursor, and a
+/// particle behind the cloth is never picked through it. With no triangle
+/// hit (a bar-only mesh, or the cursor just off the cloth's edge) every
+/// particle within the radius competes; on a tie the nearer to the eye.
 pub fn pick(positions: &[Vec3], triangles: &[[u32; 3]], view: &ViewGeometry, cursor: Vec2) -> Option<usize> {
     let ray = view.camera.ray(cursor, view.size, view.world_radius);
     let mut nearest: Option<(f32, [u32; 3])> = None;
@@ -38,19 +42,20 @@ pub fn pick(positions: &[Vec3], triangles: &[[u32; 3]], view: &ViewGeometry, cur
             nearest = Some((t, tri));
         }
     }
-    let on_screen = |i: usize| view.camera.project(positions[i], view.size, view.world_radius);
-    if let Some((_, tri)) = nearest {
-        return tri
-            .iter()
-            .map(|&i| i as usize)
-            .filter_map(|i| on_screen(i).map(|(p, _)| (i, p.distance(cursor))))
-            .min_by(|x, y| x.1.total_cmp(&y.1))
-            .map(|(i, _)| i);
-    }
+    // Depth along the ray; a particle within 2 % of the camera's distance
+    // behind the surface hit is on it (its own triangle, seen edge-on).
+    let depth = |p: Vec3| (p - ray.origin).dot(ray.direction);
+    let limit = nearest.map_or(f32::INFINITY, |(t, _)| t + 0.02 * view.camera.distance);
+    let corners = nearest.map_or([u32::MAX; 3], |(_, tri)| tri);
     (0..positions.len())
-        .filter_map(|i| on_screen(i).map(|(p, depth)| (i, p.distance(cursor), depth)))
-        .filter(|&(_, d, _)| d <= PICK_RADIUS_PIXELS)
-        .min_by(|x, y| (x.1.round(), x.2).partial_cmp(&(y.1.round(), y.2)).unwrap_or(std::cmp::Ordering::Equal))
+        .filter_map(|i| {
+            let (pixel, _) = view.camera.project(positions[i], view.size, view.world_radius)?;
+            let d = pixel.distance(cursor);
+            let corner = corners.contains(&(i as u32));
+            let visible = depth(positions[i]) <= limit;
+            (corner || (d <= PICK_RADIUS_PIXELS && visible)).then_some((i, d, depth(positions[i])))
+        })
+        .min_by(|x, y| (x.1, x.2).partial_cmp(&(y.1, y.2)).unwrap_or(std::cmp::Ordering::Equal))
         .map(|(i, _, _)| i)
 }
 
@@ -171,6 +176,24 @@ mod tests {
             assert_eq!(pick(sim.positions(), sim.mesh().triangles(), &view, at), Some(i));
         }
         assert_eq!(pick(sim.positions(), sim.mesh().triangles(), &view, Vec2::new(2.0, 2.0)), None);
+    }
+
+    #[test]
+    fn a_particle_drawn_in_front_of_another_triangle_is_the_one_picked() {
+        // A particle on no triangle, 1 m in front of the sheet, half way
+        // between particles 12 and 13 on screen: a click on it used to take
+        // the nearest corner of the sheet's triangle behind it. One 3 m
+        // behind the sheet is hidden by it and never picked.
+        let (sim, view) = setup();
+        let mut positions = sim.positions().to_vec();
+        let between = 0.5 * (positions[12] + positions[13]);
+        let toward_eye = -view.camera.ray(screen(&view, between), view.size, view.world_radius).direction;
+        positions.push(between + toward_eye);
+        positions.push(between - 3.0 * toward_eye);
+        let at = screen(&view, positions[25]);
+        assert_eq!(pick(&positions, sim.mesh().triangles(), &view, at), Some(25));
+        let behind = screen(&view, positions[26]) + Vec2::new(1.0, 0.0);
+        assert_ne!(pick(&positions, sim.mesh().triangles(), &view, behind), Some(26));
     }
 
     #[test]

@@ -82,7 +82,7 @@ pub fn initial_mode(playback: Playback, seconds_per_step: f64, dt: f64) -> (Time
         Playback::Auto => {
             let share = seconds_per_step / dt;
             if share <= REAL_TIME_SHARE {
-                let why = format!("real time: the solver needs {:.0} % of it", 100.0 * share);
+                let why = format!("real time: the solver needs {:.1} % of it", 100.0 * share);
                 (TimeMode::RealTime, why)
             } else {
                 let why = format!("a step per frame: real time would need {:.0} % of the CPU", 100.0 * share);
@@ -116,7 +116,7 @@ mod tests {
         // 1 ms steps of h = 0.01 s: 10 % of real time.
         let (mode, why) = initial_mode(Playback::Auto, 1e-3, 0.01);
         assert_eq!(mode, TimeMode::RealTime);
-        assert!(why.contains("10 %"), "{why}");
+        assert!(why.contains("10.0 %"), "{why}");
         // 20 ms steps of h = 0.02 s would need the whole CPU.
         let (mode, why) = initial_mode(Playback::Auto, 0.02, 0.02);
         assert_eq!(mode, TimeMode::StepPerFrame);

@@ -23,11 +23,13 @@ use crate::render::{
 use crate::scene::{self, Scene};
 use crate::sim::{SimError, Simulation};
 use crate::ui::overlay::{self, Toast};
-use crate::ui::panel::PANEL_WIDTH;
+use crate::ui::panel::panel_width;
 use crate::ui::{PanelModel, PanelState, Stats, UiCommand, UiFrame, UiPainter};
 
 /// Seconds a notice stays up.
 const TOAST_SECONDS: f64 = 4.0;
+/// How often an idle viewer looks whether its scene file was saved.
+const WATCH_POLL: Duration = Duration::from_millis(250);
 
 /// What the window must do on the viewer's behalf.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -123,6 +125,13 @@ pub struct Viewer {
     timeline: Timeline,
     /// Why the scene opened in its time mode (the panel says it).
     time_reason: String,
+    /// What is absurd about the state shown, if anything (checked when it
+    /// changes).
+    absurd: Option<crate::sim::health::Absurdity>,
+    /// The particle under the cursor, which a click would grab or pin.
+    hovered: Option<usize>,
+    /// The scene file on disk, watched for saves (none for bundled scenes).
+    watcher: Option<super::watch::SceneWatcher>,
     export_dir: PathBuf,
 }
 
@@ -177,9 +186,13 @@ impl Viewer {
             screenshot_pending: false,
             timeline,
             time_reason: String::new(),
+            absurd: None,
+            hovered: None,
+            watcher: None,
             export_dir: settings.export_dir,
         };
         viewer.choose_time_mode();
+        viewer.watch_scene_file();
         Ok(viewer)
     }
 
@@ -240,6 +253,17 @@ impl Viewer {
         &self.view
     }
 
+    /// What is absurd about the state shown (the warning over the view).
+    pub fn absurdity(&self) -> Option<&crate::sim::health::Absurdity> {
+        self.absurd.as_ref()
+    }
+
+    /// The particle under the cursor (highlighted: a click grabs it, or
+    /// with Ctrl pins it), as of the last frame.
+    pub fn hovered_particle(&self) -> Option<usize> {
+        self.hovered
+    }
+
     /// How time advances now.
     pub fn time_mode(&self) -> crate::ui::TimeMode {
         self.stepper.mode
@@ -297,6 +321,7 @@ impl Viewer {
     /// Runs the interface for one frame on `input`, applies what the user
     /// asked for, advances the simulation, and returns egui's drawing.
     pub fn run_frame(&mut self, input: egui::RawInput) -> Frame {
+        self.reload_if_saved();
         let ctx = self.egui.clone();
         let mut commands = Vec::new();
         let output = ctx.run_ui(input, |ui| commands.extend(self.build_ui(ui)));
@@ -316,10 +341,12 @@ impl Viewer {
         let running = !self.paused && self.sim.diverged().is_none();
         let egui_delay = output.viewport_output.get(&egui::ViewportId::ROOT).map_or(Duration::MAX, |v| v.repaint_delay);
         let toast_delay = self.toasts.iter().map(|t| Duration::from_secs_f64((t.until - now).max(0.0))).min();
+        // A watched file is polled a few times a second even when idle.
+        let watch_delay = self.watcher.as_ref().map(|_| WATCH_POLL);
         let repaint_after = if running || !matches!(self.drag, Drag::None) {
             Duration::ZERO
         } else {
-            egui_delay.min(toast_delay.unwrap_or(Duration::MAX))
+            egui_delay.min(toast_delay.unwrap_or(Duration::MAX)).min(watch_delay.unwrap_or(Duration::MAX))
         };
         let primitives = ctx.tessellate(output.shapes, output.pixels_per_point);
         // Textures go up now, whether or not the frame is drawn: a frame
@@ -348,7 +375,8 @@ impl Viewer {
             adapter: &self.adapter,
         };
         let state = &mut self.panel;
-        egui::Panel::right("panel").resizable(true).default_size(PANEL_WIDTH).min_size(220.0).show(ui, |ui| {
+        let width = panel_width(ui.ctx().content_rect().width());
+        egui::Panel::right("panel").resizable(false).exact_size(width).show(ui, |ui| {
             commands.extend(crate::ui::panel(ui, state, &model));
         });
         let recording = self.timeline.recording();
@@ -376,6 +404,8 @@ impl Viewer {
         }
         if let Some(error) = self.sim.diverged() {
             commands.extend(overlay::diverged_message(&ctx, self.view_rect, &error.to_string()));
+        } else if let Some(absurd) = &self.absurd {
+            overlay::absurd_warning(&ctx, self.view_rect, &absurd.to_string());
         }
         let now = self.seconds();
         overlay::toasts(&ctx, self.view_rect, &self.toasts, now);
@@ -432,7 +462,15 @@ impl Viewer {
         }
         let simulated = self.sim.time() - time_before;
         let at = now.as_secs_f64();
-        let strain = *self.strain.get_or_insert_with(|| self.sim.edge_strain());
+        let strain = match self.strain {
+            Some(strain) => strain,
+            None => {
+                let strain = self.sim.edge_strain();
+                self.strain = Some(strain);
+                self.absurd = crate::sim::health::check(&self.sim, strain.max);
+                strain
+            }
+        };
         self.stats.record_frame(at, frame_seconds, solver_seconds, steps, simulated, strain);
     }
 
@@ -520,6 +558,35 @@ impl Viewer {
         None
     }
 
+    /// Watches the scene's file, if it came from one, for saves.
+    fn watch_scene_file(&mut self) {
+        self.watcher = None;
+        if self.scene.source.starts_with("bundled:") || self.scene.source.starts_with('<') {
+            return;
+        }
+        match super::watch::SceneWatcher::new(std::path::Path::new(&self.scene.source)) {
+            Ok(w) => self.watcher = Some(w),
+            Err(e) => self.toast(format!("cannot watch {} for changes: {e}", self.scene.source), true),
+        }
+    }
+
+    /// Reloads the scene if its file was saved, keeping the camera.
+    fn reload_if_saved(&mut self) {
+        let Some(watcher) = &self.watcher else { return };
+        match watcher.changed() {
+            Ok(false) => {}
+            Ok(true) => {
+                let path = watcher.file().display().to_string();
+                self.load_scene_keeping_camera(&path, true);
+            }
+            Err(e) => {
+                let text = format!("stopped watching {}: {e}", self.scene.source);
+                self.watcher = None;
+                self.toast(text, true);
+            }
+        }
+    }
+
     /// Opens the scene in real time or a step per frame, as it asks or as
     /// the solver's measured speed allows.
     fn choose_time_mode(&mut self) {
@@ -562,6 +629,12 @@ impl Viewer {
     }
 
     fn load_scene(&mut self, name: &str) {
+        self.load_scene_keeping_camera(name, false);
+    }
+
+    /// Loads a scene; `keep_camera` leaves the view where it is (a reload of
+    /// the same file after it was saved).
+    fn load_scene_keeping_camera(&mut self, name: &str, keep_camera: bool) {
         let loaded = scene::load(name).map_err(|e| e.to_string()).and_then(|scene| {
             let sim = scene.simulation().map_err(|e| e.to_string())?;
             Ok((scene, sim))
@@ -578,11 +651,17 @@ impl Viewer {
                 self.renderer.set_highlight(None);
                 self.stats.clear();
                 self.choose_time_mode();
-                self.reset_camera();
+                if !keep_camera {
+                    self.reset_camera();
+                }
                 self.sim_changed = false;
                 self.strain = None;
-                let text = format!("loaded {}", self.scene.name);
+                let verb = if keep_camera { "reloaded" } else { "loaded" };
+                let text = format!("{verb} {}", self.scene.name);
                 self.toast(text, false);
+                if !keep_camera {
+                    self.watch_scene_file();
+                }
             }
             Err(e) => self.toast(format!("cannot load {name}: {e}"), true),
         }

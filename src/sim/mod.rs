@@ -66,6 +66,7 @@
 //! - [`reference`](mod@reference): the seed's loops written plainly, the yardstick.
 //! - [`fast`]: the same equations ordered for speed (colouring, SIMD lanes, threads).
 //! - [`metrics`]: strain and energies.
+//! - [`health`]: finite but absurd states (stretch, run-away, speed), named.
 //! - [`tether`]: long-range attachments that bound stretch.
 //! - [`aero`]: the air phase (drag and lift on triangles, turbulence).
 //! - [`units`], [`material`]: masses and stiffness in physical units, fabric presets.
@@ -76,6 +77,7 @@ pub mod collider;
 pub mod contact;
 pub mod exact;
 pub mod fast;
+pub mod health;
 pub mod hold;
 pub mod inextensible;
 pub mod material;

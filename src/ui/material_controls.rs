@@ -59,7 +59,17 @@ pub(super) fn material_controls(ui: &mut Ui, p: &mut SolverParams) {
             .on_hover_text("Force per width per unit strain; the same cloth at every resolution (soft below the passes' own stiffness).");
     }
     if let Some(b) = &mut p.bend_stiffness {
-        ui.add(slider(b, 1e-7..=1e-2).logarithmic(true).suffix(" N·m").text("bend B"))
-            .on_hover_text("Flexural rigidity: silk 2e-6, cotton 8e-6, denim 1e-4 N·m.");
+        // Scientific notation: 7.85e-6, not 0.00000785, keeps the row narrow.
+        let scientific = |v: f64, _: std::ops::RangeInclusive<usize>| format!("{v:.2e}");
+        let parse = |s: &str| s.trim().trim_end_matches("N·m").trim().parse::<f64>().ok();
+        ui.add(
+            slider(b, 1e-7..=1e-2)
+                .logarithmic(true)
+                .custom_formatter(scientific)
+                .custom_parser(parse)
+                .suffix(" N·m")
+                .text("bend B"),
+        )
+        .on_hover_text("Flexural rigidity: silk 2e-6, cotton 8e-6, denim 1e-4 N·m.");
     }
 }

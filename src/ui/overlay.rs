@@ -70,6 +70,22 @@ pub fn diverged_message(ctx: &egui::Context, view: Rect, error: &str) -> Vec<UiC
     commands
 }
 
+/// A warning across the top of `view` while the state is absurd (finite,
+/// but no longer cloth): what is wrong and what to change.
+pub fn absurd_warning(ctx: &egui::Context, view: Rect, text: &str) {
+    egui::Area::new(egui::Id::unique("absurd"))
+        .pivot(Align2::CENTER_TOP)
+        .fixed_pos(view.center_top() + vec2(0.0, 10.0))
+        .interactable(false)
+        .show(ctx, |ui| {
+            egui::Frame::popup(ui.style()).fill(Color32::from_rgb(110, 80, 10)).inner_margin(10.0).show(ui, |ui| {
+                ui.set_max_width((view.width() * 0.7).max(200.0));
+                ui.label(RichText::new("This is no longer cloth").strong().color(Color32::from_rgb(255, 220, 140)));
+                ui.label(RichText::new(text).color(Color32::WHITE));
+            });
+        });
+}
+
 /// A notice shown for a few seconds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Toast {

@@ -12,8 +12,16 @@ use crate::render::ViewOptions;
 use crate::scene::{BUNDLED, Scene};
 use crate::sim::Simulation;
 
-/// Width the panel opens at, in points.
-pub const PANEL_WIDTH: f32 = 310.0;
+/// Narrowest and widest the panel is, in points.
+pub const PANEL_WIDTH_RANGE: (f32, f32) = (290.0, 360.0);
+
+/// The panel's width for a window `window_width` points wide: 30 % of it
+/// within [`PANEL_WIDTH_RANGE`]. Set every frame, never remembered: the
+/// panel follows the window and narrows again when it does; what is wider
+/// than the panel wraps rather than widening it.
+pub fn panel_width(window_width: f32) -> f32 {
+    (0.3 * window_width).clamp(PANEL_WIDTH_RANGE.0, PANEL_WIDTH_RANGE.1)
+}
 
 /// Everything the panel shows.
 #[derive(Clone, Copy, Debug)]
@@ -54,6 +62,10 @@ pub fn panel(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) -> Vec
     ui.label(RichText::new(&model.scene.description).small().weak());
     ui.add_space(2.0);
     egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
+        // Sliders share the row with a value box (about 90 points) and a
+        // label (about 85): they take what is left, so no row is wider
+        // than the panel.
+        ui.spacing_mut().slider_width = (ui.available_width() - 190.0).clamp(50.0, 140.0);
         egui::CollapsingHeader::new("Scene").default_open(true).show(ui, |ui| {
             commands.extend(scene_section(ui, state, model));
         });
@@ -183,7 +195,6 @@ fn optional(value: Option<f64>, show: impl Fn(f64) -> String) -> String {
 fn stats_section(ui: &mut Ui, model: &PanelModel<'_>) {
     let stats = model.stats;
     let strain = stats.strain();
-    // Two figures per row keeps the plots in view on a laptop screen.
     let figures = [
         ("frame rate", optional(stats.fps(), |f| format!("{f:.1}/s"))),
         ("solver/step", optional(stats.solver_seconds_per_step(), format_duration)),
@@ -194,11 +205,17 @@ fn stats_section(ui: &mut Ui, model: &PanelModel<'_>) {
         ("max stretch", format!("{:.2} %", strain.max * 100.0)),
         ("RMS stretch", format!("{:.3} %", strain.rms * 100.0)),
     ];
-    egui::Grid::new("stats").num_columns(4).striped(true).spacing([6.0, 2.0]).show(ui, |ui| {
-        for pair in figures.chunks(2) {
-            for (name, value) in pair {
-                ui.label(RichText::new(*name).small());
-                ui.label(RichText::new(value).monospace().small());
+    // Names in the normal text colour, figures in the strong one, both at
+    // the body size: readable at a glance on the dark panel.
+    // Two figures a row where the panel is wide enough for them at this
+    // size, one a row otherwise.
+    let strong = ui.visuals().strong_text_color();
+    let per_row = if ui.available_width() >= 340.0 { 2 } else { 1 };
+    egui::Grid::new("stats").num_columns(2 * per_row).striped(true).spacing([8.0, 3.0]).show(ui, |ui| {
+        for row in figures.chunks(per_row) {
+            for (name, value) in row {
+                ui.label(*name);
+                ui.label(RichText::new(value).monospace().color(strong));
             }
             ui.end_row();
         }

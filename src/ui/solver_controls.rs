@@ -188,7 +188,9 @@ pub(super) fn slider<Num: egui::emath::Numeric>(value: &mut Num, range: std::ops
 /// that both 9.8 N and 0.0098 N can be adjusted.
 fn vector_row(ui: &mut Ui, label: &str, v: &mut Vec3) -> egui::Response {
     let speed = f64::from(v.abs().max_element()).max(1e-3) * 0.01;
-    ui.horizontal(|ui| {
+    // Wrapped: in a narrow panel the label moves to the next line instead
+    // of being cut off at the panel's edge.
+    ui.horizontal_wrapped(|ui| {
         for (value, axis) in [(&mut v.x, "x "), (&mut v.y, "y "), (&mut v.z, "z ")] {
             ui.add(DragValue::new(value).speed(speed).prefix(axis).max_decimals(5));
         }

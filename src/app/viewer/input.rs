@@ -79,6 +79,18 @@ impl Viewer {
         if response.hovered() && scroll.y != 0.0 {
             self.camera.zoom(scroll.y / SCROLL_PER_ZOOM_STEP);
         }
+        // The particle a click would take, highlighted before the click.
+        let hovered = match (&self.drag, cursor) {
+            (Drag::None, Some(cursor)) if response.hovered() && !modifiers.shift => {
+                let geometry = self.view_geometry();
+                pick(self.sim.positions(), self.sim.mesh().triangles(), &geometry, cursor)
+            }
+            _ => None,
+        };
+        if matches!(self.drag, Drag::None) {
+            self.hovered = hovered;
+            self.renderer.set_highlight(hovered);
+        }
         if response.hovered()
             && pointer.primary_pressed()
             && let Some(cursor) = cursor
