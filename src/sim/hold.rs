@@ -98,4 +98,32 @@ mod tests {
         assert!((push[1] - Vec3::new(0.0, 0.001, 0.0)).length() < 1e-7, "{}", push[1]);
         assert_eq!(push[2], Vec3::ZERO);
     }
+
+    #[test]
+    fn a_held_particle_keeps_a_hands_weight_through_other_changes() {
+        use crate::sim::{Grid, Simulation, SolverParams};
+        let mesh = Grid { columns: 3, rows: 3, ..Grid::default() }.build().unwrap();
+        let mut sim = Simulation::new(mesh, SolverParams::default()).unwrap();
+        let held = 8;
+        sim.hold(held, Vec3::ZERO, 100.0).unwrap();
+        // Equal masses: weight 1, held 0.02 (a hand of 50 particles).
+        assert_eq!(sim.inverse_masses()[held], 0.02);
+        // A new density changes every weight; the held one stays a hand's
+        // share of its new own (it used to come back whole while held).
+        let dense = SolverParams { density: Some(0.3), ..SolverParams::default() };
+        sim.set_params(dense).unwrap();
+        let own = {
+            let mut free = sim.clone();
+            free.release(held);
+            free.inverse_masses()[held]
+        };
+        assert!((sim.inverse_masses()[held] - 0.02 * own).abs() < 1e-7, "{} vs {own}", sim.inverse_masses()[held]);
+        // Pinned and freed again while held: a hand's weight again.
+        sim.set_fixed(held, true).unwrap();
+        assert_eq!(sim.inverse_masses()[held], 0.0);
+        sim.set_fixed(held, false).unwrap();
+        assert!((sim.inverse_masses()[held] - 0.02 * own).abs() < 1e-7);
+        sim.release(held);
+        assert_eq!(sim.inverse_masses()[held], own);
+    }
 }

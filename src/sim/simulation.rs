@@ -211,8 +211,9 @@ impl Simulation {
         };
         self.aero = aero;
         if material.weight != self.material.weight {
-            for (i, &w) in material.weight.iter().enumerate() {
+            for i in 0..material.weight.len() {
                 if !self.fixed[i] {
+                    let w = self.free_weight(&material, i);
                     self.inverse_mass[i] = w;
                     self.solver.set_inverse_mass(i, w);
                 }
@@ -459,7 +460,7 @@ impl Simulation {
         self.check_index(index)?;
         if self.fixed[index] != fixed {
             self.fixed[index] = fixed;
-            let weight = if fixed { 0.0 } else { self.material.weight[index] };
+            let weight = if fixed { 0.0 } else { self.free_weight(&self.material, index) };
             self.inverse_mass[index] = weight;
             self.solver.set_inverse_mass(index, weight);
             if fixed {
@@ -496,7 +497,7 @@ impl Simulation {
             None => {
                 self.holds.list.push(hold);
                 if !self.fixed[index] {
-                    let weight = self.material.weight[index] * HAND_WEIGHT;
+                    let weight = self.free_weight(&self.material, index);
                     self.inverse_mass[index] = weight;
                     self.solver.set_inverse_mass(index, weight);
                 }
@@ -515,6 +516,13 @@ impl Simulation {
             self.inverse_mass[index] = weight;
             self.solver.set_inverse_mass(index, weight);
         }
+    }
+
+    /// The weight (inverse mass relative to m̄) of free particle `i` under
+    /// `material`: its own, or a hand's while it is held.
+    fn free_weight(&self, material: &Derived, i: usize) -> f32 {
+        let held = self.holds.list.iter().any(|h| h.particle == i);
+        material.weight[i] * if held { HAND_WEIGHT } else { 1.0 }
     }
 
     /// The particles held now.
