@@ -28,6 +28,9 @@ pub struct RunSummary {
     pub substeps: u32,
     /// The solver used.
     pub solver: &'static str,
+    /// The fast solver's SIMD level (`DRAPE_SIMD`, [`crate::sim::fast::simd`]),
+    /// and why it differs from the one asked for, if it does.
+    pub simd: String,
     /// Wall-clock seconds per step, stepping only (output excluded).
     pub seconds_per_step: f64,
     /// Bar projections per wall-clock second.
@@ -66,6 +69,7 @@ impl std::fmt::Display for RunSummary {
         } else {
             writeln!(f, "relaxations          {} ({} solver)", self.relaxations, self.solver)?;
         }
+        writeln!(f, "SIMD level           {}", self.simd)?;
         writeln!(f, "wall time per step   {}", format_duration(self.seconds_per_step))?;
         writeln!(f, "bar projections/s    {:.3e}", self.projections_per_second)?;
         writeln!(f, "max strain           {:.4e}", self.strain.max)?;
@@ -177,6 +181,17 @@ pub fn run(
         relaxations: sim.params().relaxations,
         substeps: sim.params().substeps,
         solver: sim.solver().name(),
+        simd: {
+            use crate::sim::fast::simd;
+            let source = match std::env::var("DRAPE_SIMD") {
+                Ok(v) if !v.trim().is_empty() => format!("DRAPE_SIMD={}", v.trim()),
+                _ => "the best this CPU has; DRAPE_SIMD=avx512|avx2|portable forces one".to_string(),
+            };
+            match simd::note() {
+                Some(note) => format!("{} ({note})", simd::level().name()),
+                None => format!("{} ({source})", simd::level().name()),
+            }
+        },
         seconds_per_step: if steps > 0 { seconds / steps as f64 } else { 0.0 },
         projections_per_second: if seconds > 0.0 { projections / seconds } else { 0.0 },
         time: sim.time(),

@@ -80,6 +80,39 @@ fn run_writes_the_state_and_the_trace() {
     assert!(csv.contains("\n10,"), "no row for step 10");
 }
 
+#[test]
+fn every_simd_level_gives_the_same_bits() {
+    // The kernels are one source compiled for each level: the fast
+    // solver's end state on the seed's scene (its wind, 150 steps) is the
+    // same at the best level and at the portable one, bit for bit (the JSON
+    // holds each f32 as its shortest decimal). DRAPE_SIMD=avx512 on a CPU
+    // without it says so and runs the best it has.
+    let dir = scratch("simd_levels");
+    let mut states = Vec::new();
+    for level in ["", "portable", "avx2", "avx512", "nonsense"] {
+        let out = dir.join(format!("state-{level}.json"));
+        let o = Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["run", "--steps", "150", "--out", path(&out), "-q"])
+            .env("DRAPE_SIMD", level)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let stdout = text(&o.stdout);
+        let line = stdout.lines().find(|l| l.starts_with("SIMD level")).unwrap_or_default().to_string();
+        if level == "portable" {
+            assert!(line.contains("portable (DRAPE_SIMD=portable)"), "{line}");
+        }
+        if level == "nonsense" {
+            assert!(line.contains("not a level"), "{line}");
+        }
+        let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        states.push((level, state["positions"].clone()));
+    }
+    for (level, positions) in &states[1..] {
+        assert!(positions == &states[0].1, "DRAPE_SIMD={level} differs from the default");
+    }
+}
+
 fn path(p: &Path) -> &str {
     p.to_str().unwrap()
 }

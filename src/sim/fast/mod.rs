@@ -11,8 +11,9 @@
 //! - **Lanes** (grids, module `grid`): eight blocks of columns sit in the
 //!   eight lanes of a vector, so one 8-wide instruction projects eight bars,
 //!   and rows are swept away from the pins. The kernels are plain loops over
-//!   `[f32; 8]` compiled for AVX2 and selected at run time (`multiversion`),
-//!   with a baseline SSE2 fallback; no `unsafe`.
+//!   `[f32; 8]` compiled for AVX-512, AVX2 and the baseline and selected at
+//!   run time (`multiversion`; `DRAPE_SIMD` forces a level, [`simd`]); no
+//!   `unsafe`.
 //! - **Overlapped passes**: on a single tile up to four passes are in flight
 //!   three rows apart, which is exactly equivalent (such rows share no
 //!   particle) and gives the CPU independent work.
@@ -47,6 +48,7 @@
 mod generic;
 mod grid;
 mod kernel;
+pub mod simd;
 
 use glam::Vec3;
 
@@ -74,11 +76,7 @@ pub fn new(
     }
 }
 
-/// The instruction set the kernels were dispatched to.
+/// The instruction set the kernels run with ([`simd::level`]).
 pub(crate) fn simd_name() -> &'static str {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-        return "AVX2";
-    }
-    "baseline SIMD"
+    simd::level().label()
 }

@@ -4,13 +4,13 @@
 //! [`super::sweep`], and contact.
 
 use glam::Vec3;
-use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
 use super::{GridLayout, Slot, Tile};
 use crate::sim::contact::ContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, settle, tether};
+use crate::sim::fast::simd::dispatch;
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
@@ -253,8 +253,12 @@ fn all_finite(slots: &[Slot]) -> bool {
     acc.0.iter().all(|a| *a == 0.0)
 }
 
-#[multiversion(targets("x86_64+avx2+fma"))]
-fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3], gravity: [f32; 3]) {
+dispatch! {
+    fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3], gravity: [f32; 3]) = integrate_tile_body, best = ["x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn integrate_tile_body(tile: &mut Tile, keep: f32, accel: [f32; 3], gravity: [f32; 3]) {
     let (keep, accel, gravity) = (F32x8::splat(keep), accel.map(F32x8::splat), gravity.map(F32x8::splat));
     let Tile { position, displacement, predicted, weight, .. } = tile;
     for (((x, d), q), w) in position.iter_mut().zip(displacement).zip(predicted).zip(weight.iter()) {
@@ -262,9 +266,13 @@ fn integrate_tile(tile: &mut Tile, keep: f32, accel: [f32; 3], gravity: [f32; 3]
     }
 }
 
-/// Pulls tethered particles back within `scale` × their rest path length.
-#[multiversion(targets("x86_64+avx2+fma"))]
-fn tether_tile(tile: &mut Tile, scale: f32) {
+dispatch! {
+    /// Pulls tethered particles back within `scale` × their rest path length.
+    fn tether_tile(tile: &mut Tile, scale: f32) = tether_tile_body, best = ["x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn tether_tile_body(tile: &mut Tile, scale: f32) {
     let Tile { position, weight, tether_anchor, tether_length, .. } = tile;
     let scale = F32x8::splat(scale);
     for (((x, w), anchor), length) in
@@ -274,8 +282,12 @@ fn tether_tile(tile: &mut Tile, scale: f32) {
     }
 }
 
-#[multiversion(targets("x86_64+avx2+fma"))]
-fn settle_tile(tile: &mut Tile) {
+dispatch! {
+    fn settle_tile(tile: &mut Tile) = settle_tile_body, best = ["x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn settle_tile_body(tile: &mut Tile) {
     let Tile { position, displacement, predicted, weight, .. } = tile;
     for (((x, d), q), w) in position.iter().zip(displacement).zip(predicted.iter()).zip(weight.iter()) {
         settle(d, *x, *q, *w);

@@ -1,11 +1,17 @@
 //! The relaxation sweeps of the lane layout: tiles, seam bars between
 //! tiles, overlapped passes on a single tile, and the 8-bar operation.
 
-use multiversion::multiversion;
 use rayon::prelude::*;
 
 use super::{Op, Slot, Tile};
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
+use crate::sim::fast::simd::dispatch;
+
+dispatch! {
+    /// [`sweep_tile_pipelined_body`] at the chosen SIMD level.
+    pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32)
+        = sweep_tile_pipelined_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+}
 
 /// What every sweep of a substep needs.
 #[derive(Clone, Copy)]
@@ -73,10 +79,15 @@ fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
     worst
 }
 
-/// One relaxation sweep over every bar inside a tile. Returns the largest
-/// excess over tolerance among movable bars (−∞ when not asked for).
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
-fn sweep_tile(tile: &mut Tile, sweep: &Sweep) -> f32 {
+dispatch! {
+    /// One relaxation sweep over every bar inside a tile. Returns the largest
+    /// excess over tolerance among movable bars (−∞ when not asked for).
+    fn sweep_tile(tile: &mut Tile, sweep: &Sweep) -> f32
+        = sweep_tile_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn sweep_tile_body(tile: &mut Tile, sweep: &Sweep) -> f32 {
     match (sweep.compliant, sweep.uniform, tile.presence.is_empty()) {
         (true, true, _) => sweep_ops::<true, false, true>(tile, sweep),
         (false, true, _) => sweep_ops::<false, false, true>(tile, sweep),
@@ -116,8 +127,8 @@ fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(tile: &m
 /// overlap instead of one: a row of a narrow cloth is otherwise one long
 /// chain of projections, each waiting for the square root and division of
 /// the last.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"))]
-pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
+#[inline(always)]
+fn sweep_tile_pipelined_body(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
     match (sweep.compliant, sweep.uniform, tile.presence.is_empty()) {
         (true, true, _) => sweep_pipelined::<true, false, true>(tile, sweep, row_starts, sweeps),
         (false, true, _) => sweep_pipelined::<false, false, true>(tile, sweep, row_starts, sweeps),

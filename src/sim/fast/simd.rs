@@ -1,0 +1,158 @@
+//! Which SIMD level the lane kernels run at, chosen once per process.
+//!
+//! By default the best the CPU has: AVX-512 (F + VL, with AVX2 and FMA),
+//! else AVX2 + FMA, else the portable build (SSE2 on x86-64, whatever the
+//! target has elsewhere). The environment variable `DRAPE_SIMD` forces a
+//! level, so that the AVX2 path can be measured on an AVX-512 host and the
+//! portable path anywhere:
+//!
+//! ```text
+//! DRAPE_SIMD=avx512 | avx2 | portable
+//! ```
+//!
+//! A level the CPU lacks falls back to the best it has, and an unknown value
+//! to the default; [`note`] says so (`drape run` prints it). The kernels are
+//! the same source at every level ([`dispatch!`]): only the instructions
+//! the compiler may use differ, so every level computes the same bits
+//! (the tests check AVX2 against portable).
+
+use std::sync::OnceLock;
+
+/// A SIMD level of the lane kernels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimdLevel {
+    /// AVX-512 F + VL (with AVX2 and FMA): 16-wide registers available.
+    Avx512,
+    /// AVX2 + FMA: 8-wide.
+    Avx2,
+    /// The target's baseline (SSE2 on x86-64).
+    Portable,
+}
+
+impl SimdLevel {
+    /// The name `DRAPE_SIMD` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            SimdLevel::Avx512 => "avx512",
+            SimdLevel::Avx2 => "avx2",
+            SimdLevel::Portable => "portable",
+        }
+    }
+
+    /// How the solver's description names it.
+    pub fn label(self) -> &'static str {
+        match self {
+            SimdLevel::Avx512 => "AVX-512",
+            SimdLevel::Avx2 => "AVX2",
+            SimdLevel::Portable => "portable SIMD",
+        }
+    }
+
+    /// The best level this CPU runs.
+    pub fn best_available() -> SimdLevel {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma");
+            let avx512 = avx2
+                && std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl");
+            if avx512 {
+                return SimdLevel::Avx512;
+            }
+            if avx2 {
+                return SimdLevel::Avx2;
+            }
+        }
+        SimdLevel::Portable
+    }
+}
+
+/// The level `DRAPE_SIMD` asks for on a CPU whose best is `best`, and a
+/// note when the request could not be honoured.
+pub fn choose(request: Option<&str>, best: SimdLevel) -> (SimdLevel, Option<String>) {
+    let rank = |l: SimdLevel| match l {
+        SimdLevel::Portable => 0,
+        SimdLevel::Avx2 => 1,
+        SimdLevel::Avx512 => 2,
+    };
+    let Some(text) = request.map(str::trim).filter(|t| !t.is_empty()) else { return (best, None) };
+    let asked = match text.to_ascii_lowercase().as_str() {
+        "avx512" | "avx-512" => SimdLevel::Avx512,
+        "avx2" => SimdLevel::Avx2,
+        "portable" | "none" | "scalar" => SimdLevel::Portable,
+        _ => {
+            let note = format!("DRAPE_SIMD={text} is not a level (avx512, avx2 or portable): using {}", best.name());
+            return (best, Some(note));
+        }
+    };
+    if rank(asked) > rank(best) {
+        let note = format!("DRAPE_SIMD={text}, but this CPU's best is {}: using it", best.name());
+        return (best, Some(note));
+    }
+    (asked, None)
+}
+
+fn chosen() -> &'static (SimdLevel, Option<String>) {
+    static CHOSEN: OnceLock<(SimdLevel, Option<String>)> = OnceLock::new();
+    CHOSEN.get_or_init(|| choose(std::env::var("DRAPE_SIMD").ok().as_deref(), SimdLevel::best_available()))
+}
+
+/// The level the kernels run at (read from `DRAPE_SIMD` once).
+pub fn level() -> SimdLevel {
+    chosen().0
+}
+
+/// Why the level is not the one `DRAPE_SIMD` asked for, if it is not.
+pub fn note() -> Option<&'static str> {
+    chosen().1.as_deref()
+}
+
+/// Defines `fn $name(args) -> ret` that runs `$body(args)` (an
+/// `#[inline(always)]` function) compiled for the chosen [`level`]: the
+/// `best` targets (multiversion picks the best the CPU has among them), AVX2
+/// + FMA alone, or the portable baseline.
+macro_rules! dispatch {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident($($arg:ident : $ty:ty),* $(,)?) $(-> $ret:ty)?
+            = $body:ident, best = [$($target:literal),+]
+    ) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[multiversion::multiversion(targets($($target),+))]
+            fn best($($arg: $ty),*) $(-> $ret)? {
+                $body($($arg),*)
+            }
+            #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
+            fn avx2($($arg: $ty),*) $(-> $ret)? {
+                $body($($arg),*)
+            }
+            match $crate::sim::fast::simd::level() {
+                $crate::sim::fast::simd::SimdLevel::Avx512 => best($($arg),*),
+                $crate::sim::fast::simd::SimdLevel::Avx2 => avx2($($arg),*),
+                $crate::sim::fast::simd::SimdLevel::Portable => $body($($arg),*),
+            }
+        }
+    };
+}
+pub(crate) use dispatch;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_request_is_honoured_down_to_what_the_cpu_has() {
+        use SimdLevel::*;
+        assert_eq!(choose(None, Avx512), (Avx512, None));
+        assert_eq!(choose(Some(""), Avx2), (Avx2, None));
+        assert_eq!(choose(Some("avx2"), Avx512), (Avx2, None));
+        assert_eq!(choose(Some(" Portable "), Avx2), (Portable, None));
+        let (level, note) = choose(Some("avx512"), Avx2);
+        assert_eq!(level, Avx2);
+        assert!(note.unwrap().contains("best is avx2"));
+        let (level, note) = choose(Some("sse9"), Avx2);
+        assert_eq!(level, Avx2);
+        assert!(note.unwrap().contains("not a level"));
+    }
+}
