@@ -58,6 +58,16 @@ fn first_repeated_bar(bars: &[Bar], particles: usize) -> Option<usize> {
         if members.len() < 2 {
             continue;
         }
+        // A cloth's buckets hold a handful of bars: compare every pair.
+        if members.len() <= 16 {
+            for (k, &j) in members.iter().enumerate() {
+                if members[..k].iter().any(|&i| hi(&bars[i as usize]) == hi(&bars[j as usize])) {
+                    first = Some(first.map_or(j as usize, |f| f.min(j as usize)));
+                    break;
+                }
+            }
+            continue;
+        }
         // (upper particle, bar index), sorted: a repeat is a neighbour with
         // the same upper particle, and the later of the two is the repeat.
         bucket.clear();
@@ -546,6 +556,11 @@ mod tests {
         assert_eq!(first_repeated_bar(&bars, 5), Some(3));
         assert_eq!(first_repeated_bar(&bars[..3], 5), None);
         assert_eq!(first_repeated_bar(&[bar(0, 1), bar(1, 2), bar(2, 1), bar(1, 2)], 3), Some(2));
+        // A star of 40 bars from particle 0 (sorted bucket), bar 30 repeats bar 7.
+        let mut star: Vec<Bar> = (1..=40).map(|i| bar(0, i)).collect();
+        assert_eq!(first_repeated_bar(&star, 41), None);
+        star[30] = bar(8, 0);
+        assert_eq!(first_repeated_bar(&star, 41), Some(30));
     }
 
     use super::*;
