@@ -248,9 +248,21 @@ fn config() -> Criterion {
     Criterion::default()
 }
 
+/// Setup: the bundled 256 × 256 scene parsed, its mesh built and checked,
+/// and a fast simulation made from it (what the viewer does on a reset or a
+/// scene switch). Target: under 50 ms.
+fn setup(c: &mut Criterion) {
+    let mut group = c.benchmark_group("setup");
+    group.sample_size(20);
+    group.bench_function("large-256", |b| {
+        b.iter(|| drape::scene::load("large").expect("bundled scene").simulation().expect("valid scene"))
+    });
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = config();
-    targets = relaxations, scale, contact, self_collision, pin, air
+    targets = relaxations, scale, contact, self_collision, pin, air, setup
 }
 criterion_main!(benches);
