@@ -12,7 +12,7 @@
 //!
 //! A level the CPU lacks falls back to the best it has, and an unknown value
 //! to the default; [`note`] says so (`drape run` prints it). The kernels are
-//! the same source at every level ([`dispatch!`]): only the instructions
+//! the same source at every level (the `dispatch!` macro): only the instructions
 //! the compiler may use differ, so every level computes the same bits
 //! (the tests check AVX2 against portable).
 
