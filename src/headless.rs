@@ -181,17 +181,7 @@ pub fn run(
         relaxations: sim.params().relaxations,
         substeps: sim.params().substeps,
         solver: sim.solver().name(),
-        simd: {
-            use crate::sim::fast::simd;
-            let source = match std::env::var("DRAPE_SIMD") {
-                Ok(v) if !v.trim().is_empty() => format!("DRAPE_SIMD={}", v.trim()),
-                _ => "the best this CPU has; DRAPE_SIMD=avx512|avx2|portable forces one".to_string(),
-            };
-            match simd::note() {
-                Some(note) => format!("{} ({note})", simd::level().name()),
-                None => format!("{} ({source})", simd::level().name()),
-            }
-        },
+        simd: crate::sim::fast::simd::describe(),
         seconds_per_step: if steps > 0 { seconds / steps as f64 } else { 0.0 },
         projections_per_second: if seconds > 0.0 { projections / seconds } else { 0.0 },
         time: sim.time(),

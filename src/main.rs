@@ -434,9 +434,7 @@ fn render(args: RenderArgs) -> anyhow::Result<()> {
         }
         let image = drape::app::snapshot(&gpu, &mut renderer, &sim, &camera, &options, args.size)?;
         let path = drape::export::frame_path(&pattern, k as usize, digits);
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        }
+        drape::export::create_parent(&path)?;
         render::write_png(&path, &image).with_context(|| format!("cannot write {}", path.display()))?;
     }
     println!(

@@ -133,7 +133,7 @@ pub fn frame_digits(frames: usize) -> usize {
 }
 
 /// Creates the directory a file goes in, if the path has one.
-pub(crate) fn create_parent(path: &Path) -> Result<(), ExportError> {
+pub fn create_parent(path: &Path) -> Result<(), ExportError> {
     match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir).map_err(ExportError::io(dir)),
         _ => Ok(()),

@@ -76,7 +76,7 @@ pub fn check(sim: &Simulation, edge_strain: f32) -> Option<Absurdity> {
     if distance > ABSURD_DISTANCE {
         return Some(Absurdity::RunAway { particle, distance });
     }
-    let longest = sim.bars().iter().map(|b| b.rest_length).fold(0.0, f32::max);
+    let longest = sim.mesh().longest_bar();
     if longest > 0.0 && sim.steps() > 0 {
         // x − x_prev spans the last substep (h/n).
         let moved = positions.iter().zip(sim.previous_positions()).map(|(p, q)| p.distance(*q));

@@ -79,24 +79,29 @@ impl Viewer {
         if response.hovered() && scroll.y != 0.0 {
             self.camera.zoom(scroll.y / SCROLL_PER_ZOOM_STEP);
         }
-        // The particle a click would take, highlighted before the click.
-        let hovered = match (&self.drag, cursor) {
-            (Drag::None, Some(cursor)) if response.hovered() && !modifiers.shift => {
-                let geometry = self.view_geometry();
-                pick(self.sim.positions(), self.sim.mesh().triangles(), &geometry, cursor)
+        // The particle under the cursor, picked once a frame: highlighted
+        // before a click, and the one a click takes.
+        let under = match (&self.drag, cursor) {
+            (Drag::None, Some(cursor)) if response.hovered() => {
+                pick(self.sim.positions(), self.sim.mesh().triangles(), &self.view_geometry(), cursor)
             }
             _ => None,
         };
         if matches!(self.drag, Drag::None) {
-            self.hovered = hovered;
-            self.renderer.set_highlight(hovered);
+            // Shift drags colliders: no particle is highlighted then.
+            self.hovered = under.filter(|_| !modifiers.shift);
+            self.renderer.set_highlight(self.hovered);
         }
         if response.hovered()
             && pointer.primary_pressed()
             && let Some(cursor) = cursor
         {
             let geometry = self.view_geometry();
-            let picked = pick(self.sim.positions(), self.sim.mesh().triangles(), &geometry, cursor);
+            // Picked above unless a drag (a pan) is under way.
+            let picked = match self.drag {
+                Drag::None => under,
+                _ => pick(self.sim.positions(), self.sim.mesh().triangles(), &geometry, cursor),
+            };
             let collider = modifiers.shift.then(|| self.pick_collider(&geometry, cursor)).flatten();
             match picked {
                 _ if collider.is_some() => {

@@ -18,15 +18,15 @@
 
 use std::sync::OnceLock;
 
-/// A SIMD level of the lane kernels.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A SIMD level of the lane kernels, in increasing order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum SimdLevel {
-    /// AVX-512 F + VL (with AVX2 and FMA): 16-wide registers available.
-    Avx512,
-    /// AVX2 + FMA: 8-wide.
-    Avx2,
     /// The target's baseline (SSE2 on x86-64).
     Portable,
+    /// AVX2 + FMA: 8-wide.
+    Avx2,
+    /// AVX-512 F + VL (with AVX2 and FMA): 16-wide registers available.
+    Avx512,
 }
 
 impl SimdLevel {
@@ -70,11 +70,6 @@ impl SimdLevel {
 /// The level `DRAPE_SIMD` asks for on a CPU whose best is `best`, and a
 /// note when the request could not be honoured.
 pub fn choose(request: Option<&str>, best: SimdLevel) -> (SimdLevel, Option<String>) {
-    let rank = |l: SimdLevel| match l {
-        SimdLevel::Portable => 0,
-        SimdLevel::Avx2 => 1,
-        SimdLevel::Avx512 => 2,
-    };
     let Some(text) = request.map(str::trim).filter(|t| !t.is_empty()) else { return (best, None) };
     let asked = match text.to_ascii_lowercase().as_str() {
         "avx512" | "avx-512" => SimdLevel::Avx512,
@@ -85,16 +80,21 @@ pub fn choose(request: Option<&str>, best: SimdLevel) -> (SimdLevel, Option<Stri
             return (best, Some(note));
         }
     };
-    if rank(asked) > rank(best) {
+    if asked > best {
         let note = format!("DRAPE_SIMD={text}, but this CPU's best is {}: using it", best.name());
         return (best, Some(note));
     }
     (asked, None)
 }
 
-fn chosen() -> &'static (SimdLevel, Option<String>) {
-    static CHOSEN: OnceLock<(SimdLevel, Option<String>)> = OnceLock::new();
-    CHOSEN.get_or_init(|| choose(std::env::var("DRAPE_SIMD").ok().as_deref(), SimdLevel::best_available()))
+/// The level, the note, and `DRAPE_SIMD` as read (once).
+fn chosen() -> &'static (SimdLevel, Option<String>, Option<String>) {
+    static CHOSEN: OnceLock<(SimdLevel, Option<String>, Option<String>)> = OnceLock::new();
+    CHOSEN.get_or_init(|| {
+        let request = std::env::var("DRAPE_SIMD").ok().map(|v| v.trim().to_string()).filter(|v| !v.is_empty());
+        let (level, note) = choose(request.as_deref(), SimdLevel::best_available());
+        (level, note, request)
+    })
 }
 
 /// The level the kernels run at (read from `DRAPE_SIMD` once).
@@ -105,6 +105,17 @@ pub fn level() -> SimdLevel {
 /// Why the level is not the one `DRAPE_SIMD` asked for, if it is not.
 pub fn note() -> Option<&'static str> {
     chosen().1.as_deref()
+}
+
+/// The level and where it came from, as `drape run` prints it.
+pub fn describe() -> String {
+    let (level, note, request) = chosen();
+    let why = match (note, request) {
+        (Some(note), _) => note.clone(),
+        (None, Some(request)) => format!("DRAPE_SIMD={request}"),
+        (None, None) => "the best this CPU has; DRAPE_SIMD=avx512|avx2|portable forces one".to_string(),
+    };
+    format!("{} ({why})", level.name())
 }
 
 /// Defines `fn $name(args) -> ret` that runs `$body(args)` (an

@@ -247,6 +247,10 @@ pub struct ClothMesh {
     bars: Vec<Bar>,
     triangles: Vec<[u32; 3]>,
     grid: Option<GridShape>,
+    /// The rest shape's bounding box and longest bar (metres): constants of
+    /// the mesh, kept so that per-frame checks need not recompute them.
+    rest_bounds: (Vec3, Vec3),
+    longest_bar: f32,
 }
 
 /// The raw parts of a mesh, checked by [`ClothMesh::new`].
@@ -362,7 +366,9 @@ impl ClothMesh {
         if let Some(g) = grid {
             debug_assert_eq!(g.columns as usize * g.rows as usize, n);
         }
-        Ok(Self { positions, velocities, fixed, bars: checked, triangles, grid })
+        let rest_bounds = bounds(&positions);
+        let longest_bar = checked.iter().map(|b| b.rest_length).fold(0.0, f32::max);
+        Ok(Self { positions, velocities, fixed, bars: checked, triangles, grid, rest_bounds, longest_bar })
     }
 
     /// The seed's generic form: particle positions, the indices of the fixed
@@ -531,7 +537,12 @@ impl ClothMesh {
     }
     /// The axis-aligned box around the initial positions: (min, max).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        bounds(&self.positions)
+        self.rest_bounds
+    }
+
+    /// The longest bar's rest length, metres (0 for a mesh without bars).
+    pub fn longest_bar(&self) -> f32 {
+        self.longest_bar
     }
 }
 
