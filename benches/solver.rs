@@ -225,6 +225,69 @@ fn self_collision(c: &mut Criterion) {
     group.finish();
 }
 
+/// A triangulated n × n sheet (two triangles a cell, alternating
+/// diagonals) in the x–y plane, `spacing` apart, hung by its top row: a
+/// triangle mesh, so it takes the coloured path, not the grid's lanes.
+fn triangle_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
+    let index = |c: u32, r: u32| r * n + c;
+    let positions =
+        (0..n).flat_map(|r| (0..n).map(move |c| Vec3::new(c as f32 * spacing, -(r as f32) * spacing, 0.0))).collect();
+    let mut triangles = Vec::with_capacity(2 * (n as usize - 1).pow(2));
+    for r in 0..n - 1 {
+        for c in 0..n - 1 {
+            let (a, b, d, e) = (index(c, r), index(c + 1, r), index(c, r + 1), index(c + 1, r + 1));
+            if (r + c) % 2 == 0 {
+                triangles.extend([[a, d, e], [a, e, b]]);
+            } else {
+                triangles.extend([[a, d, b], [b, d, e]]);
+            }
+        }
+    }
+    let pinned: Vec<u64> = (0..n).map(u64::from).collect();
+    drape::sim::ClothMesh::from_triangles(positions, triangles, &pinned, None).expect("valid sheet")
+}
+
+/// Meshes that are not grids (OBJ files, triangle meshes) take the coloured
+/// path: the bundled tablecloth (1 801 vertices) and a 320 × 320
+/// triangulated sheet (102 400 vertices), 20 relaxations, light seed wind,
+/// reference beside fast on one thread and on all threads.
+fn meshes(c: &mut Criterion) {
+    let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
+    let mut group = c.benchmark_group("mesh");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(4));
+    let tablecloth = drape::scene::load("tablecloth").expect("bundled scene");
+    let sheet = triangle_sheet(320, 0.02);
+    let sheet_params = SolverParams {
+        relaxations: 20,
+        dt: 0.01,
+        mass: 0.001,
+        gravity: glam::Vec3::new(0.0, -0.0098, 0.0),
+        wind: Wind::Seed { scale: 0.001 },
+        ..SolverParams::default()
+    };
+    let cases = [
+        ("tablecloth", (*tablecloth.mesh).clone(), SolverParams { relaxations: 20, ..tablecloth.params.clone() }),
+        ("sheet-320", sheet, sheet_params),
+    ];
+    for (mesh_name, mesh, params) in cases {
+        let runs: [(&str, SolverKind, Option<&rayon::ThreadPool>); 3] = [
+            ("reference", SolverKind::Reference, None),
+            ("fast-1-thread", SolverKind::Fast, Some(&single)),
+            ("fast-all-threads", SolverKind::Fast, None),
+        ];
+        for (name, kind, pool) in runs {
+            let mut sim = warmed(mesh.clone(), params.clone(), kind);
+            group.throughput(Throughput::Elements(sim.projections_per_step()));
+            group.bench_function(BenchmarkId::new(name, mesh_name), |b| match pool {
+                Some(pool) => b.iter(|| pool.install(|| sim.step().expect("no blow-up"))),
+                None => b.iter(|| sim.step().expect("no blow-up")),
+            });
+        }
+    }
+    group.finish();
+}
+
 /// Pinning and unpinning one particle of the 256 × 256 cloth: a write of
 /// its weight (goal: under 1 ms; it was a 0.13 s rebuild).
 fn pin(c: &mut Criterion) {
@@ -263,6 +326,6 @@ fn setup(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = config();
-    targets = relaxations, scale, contact, self_collision, pin, air, setup
+    targets = relaxations, scale, meshes, contact, self_collision, pin, air, setup
 }
 criterion_main!(benches);
