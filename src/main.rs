@@ -67,6 +67,9 @@ struct SolverOverrides {
     /// XPBD compliance of bend bars, m/N (0 = rigid).
     #[arg(long)]
     bend_compliance: Option<f32>,
+    /// XPBD compliance of shear bars, a grid's diagonals, m/N (0 = rigid; default: the stretch compliance)
+    #[arg(long)]
+    shear_compliance: Option<f32>,
     /// Over-relaxation ω of each projection (1 ≤ ω < 2).
     #[arg(long)]
     over_relaxation: Option<f32>,
@@ -126,6 +129,7 @@ impl SolverOverrides {
         params.substeps = self.substeps.unwrap_or(params.substeps);
         params.stretch_compliance = self.stretch_compliance.unwrap_or(params.stretch_compliance);
         params.bend_compliance = self.bend_compliance.unwrap_or(params.bend_compliance);
+        params.shear_compliance = self.shear_compliance.or(params.shear_compliance);
         params.over_relaxation = self.over_relaxation.unwrap_or(params.over_relaxation);
         params.tether_slack = self.tether_slack.or(params.tether_slack);
         params.tolerance = self.tolerance.unwrap_or(params.tolerance);

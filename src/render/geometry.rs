@@ -142,8 +142,9 @@ pub fn checker_cell(bars: &[Bar], extent: f32) -> f32 {
     }
     let mid = lengths.len() / 2;
     let (_, &mut median, _) = lengths.select_nth_unstable_by(mid, f32::total_cmp);
-    // Grids have diagonal structural bars too; the shortest common length
-    // is the edge. Take the smaller of the median and the 10th percentile.
+    // Adjacency lists may join diagonal neighbours too; the shortest common
+    // length is the edge. Take the smaller of the median and the 10th
+    // percentile.
     let tenth = lengths.len() / 10;
     let (_, &mut low, _) = lengths.select_nth_unstable_by(tenth, f32::total_cmp);
     let edge = median.min(low).max(1e-6);
@@ -212,11 +213,12 @@ pub fn vertex_strain(positions: &[Vec3], bars: &[Bar], is_edge: impl Fn(&Bar) ->
     }
 }
 
-/// The bars of the kinds asked for, with their current strain.
+/// The bars of the kinds asked for, with their current strain (a grid's
+/// shear bars, its diagonals, are drawn with the structural ones).
 pub fn bar_instances(positions: &[Vec3], bars: &[Bar], structural: bool, bend: bool, out: &mut Vec<BarInstance>) {
     out.clear();
     let wanted = |b: &&Bar| match b.kind {
-        BarKind::Structural => structural,
+        BarKind::Structural | BarKind::Shear => structural,
         BarKind::Bend => bend,
     };
     out.extend(bars.iter().filter(wanted).map(|bar| BarInstance {

@@ -88,6 +88,9 @@ pub struct SolverTable {
     pub stretch_compliance: Option<f32>,
     /// XPBD compliance of bend bars, m/N (default 0).
     pub bend_compliance: Option<f32>,
+    /// XPBD compliance of shear bars (a grid's diagonals), m/N (default:
+    /// the structural bars').
+    pub shear_compliance: Option<f32>,
     /// ω, over-relaxation.
     pub over_relaxation: f32,
     /// Tethers on with this slack; absent is off.
@@ -129,6 +132,7 @@ impl Default for SolverTable {
             substeps: p.substeps,
             stretch_compliance: None,
             bend_compliance: None,
+            shear_compliance: None,
             over_relaxation: p.over_relaxation,
             tether_slack: p.tether_slack,
             start: p.start,
@@ -405,6 +409,7 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         substeps: s.substeps,
         stretch_compliance: s.stretch_compliance.unwrap_or(d.stretch_compliance),
         bend_compliance: s.bend_compliance.unwrap_or(d.bend_compliance),
+        shear_compliance: s.shear_compliance,
         over_relaxation: s.over_relaxation,
         tether_slack: s.tether_slack,
         start: s.start,

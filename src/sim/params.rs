@@ -118,6 +118,13 @@ pub struct SolverParams {
     /// α for bend bars, m/N, as `stretch_compliance`. Soft bend bars (1e-4 to
     /// 1e-2) let cloth fold without making it stretchy. Default 0.
     pub bend_compliance: f32,
+    /// α for shear bars (a grid's diagonals), m/N, as `stretch_compliance`.
+    /// Woven cloth gives in shear long before it stretches: soft diagonals
+    /// (1e-3 to 1e-1 on the seed's scales) let a cloth shear flat where
+    /// rigid ones make it buckle into diagonal pleats. Range `0 ..= 1`;
+    /// default unset: the diagonals take `stretch_compliance` (the seed's
+    /// grid, where they are structural bars like the others).
+    pub shear_compliance: Option<f32>,
     /// ω: over-relaxation of every projection, which moves the bar's ends ω
     /// times the way to its rest length. Range `1 <= ω < 2`, default 1 (plain
     /// projection). Values up to about 1.5 converge in fewer passes on cloth;
@@ -224,6 +231,7 @@ impl Default for SolverParams {
             substeps: 1,
             stretch_compliance: 0.0,
             bend_compliance: 0.0,
+            shear_compliance: None,
             over_relaxation: 1.0,
             tether_slack: None,
             start: Start::Euler,
@@ -315,9 +323,11 @@ impl SolverParams {
         if !(1..=MAX_SUBSTEPS).contains(&self.substeps) {
             return Err(ParamError::new("substeps", self.substeps, "an integer from 1 to 1000"));
         }
-        for (name, alpha) in
-            [("stretch_compliance", self.stretch_compliance), ("bend_compliance", self.bend_compliance)]
-        {
+        for (name, alpha) in [
+            ("stretch_compliance", self.stretch_compliance),
+            ("bend_compliance", self.bend_compliance),
+            ("shear_compliance", self.shear_compliance.unwrap_or(0.0)),
+        ] {
             if !(0.0..=MAX_COMPLIANCE).contains(&alpha) {
                 return Err(ParamError::new(name, alpha, "m/N, 0 <= compliance <= 1 (0 is rigid)"));
             }
@@ -422,6 +432,7 @@ mod tests {
             (SolverParams { substeps: 0, ..base.clone() }, "substeps"),
             (SolverParams { stretch_compliance: -1.0, ..base.clone() }, "stretch_compliance"),
             (SolverParams { bend_compliance: f32::NAN, ..base.clone() }, "bend_compliance"),
+            (SolverParams { shear_compliance: Some(2.0), ..base.clone() }, "shear_compliance"),
             (SolverParams { over_relaxation: 2.0, ..base.clone() }, "over_relaxation"),
             (SolverParams { tether_slack: Some(-0.5), ..base.clone() }, "tether_slack"),
             (SolverParams { thickness: -0.01, ..base.clone() }, "thickness"),

@@ -94,6 +94,7 @@ impl ReferenceSolver {
             }
             let beta = match bar.kind {
                 BarKind::Structural => s.stretch_beta,
+                BarKind::Shear => s.shear_beta,
                 BarKind::Bend => s.bend_beta,
             };
             let (da, db) = project_bar_compliant(xa, xb, bar.rest_length, wa, wb, beta, lambda, s.over_relaxation);
@@ -141,7 +142,7 @@ impl Solver for ReferenceSolver {
         if let (Some(tethers), Some(slack)) = (&self.tethers, s.tether_slack) {
             apply_tethers(&mut self.positions, &self.inverse_mass, tethers, slack);
         }
-        let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
+        let compliant = s.compliant();
         if compliant {
             self.lambda.fill(0.0);
         }

@@ -387,6 +387,7 @@ impl Simulation {
                 over_relaxation: p.over_relaxation,
                 stretch_beta: beta(self.material.stretch_compliance),
                 bend_beta: beta(self.material.bend_compliance),
+                shear_beta: beta(self.material.shear_compliance),
                 tether_slack: p.tether_slack,
             };
             for k in 0..p.substeps {
@@ -653,9 +654,10 @@ struct Derived {
     mean: f32,
     /// m̄ / m_i: the weight of each particle while free.
     weight: Vec<f32>,
-    /// α of structural and of bend bars, m/N.
+    /// α of structural, bend and shear bars, m/N.
     stretch_compliance: f32,
     bend_compliance: f32,
+    shear_compliance: f32,
 }
 
 impl Derived {
@@ -678,7 +680,8 @@ impl Derived {
             Some(b) => units::bend_compliance(mesh, b)?.min(super::params::MAX_COMPLIANCE),
             None => p.bend_compliance,
         };
-        Ok(Self { mass, mean, weight, stretch_compliance, bend_compliance })
+        let shear_compliance = p.shear_compliance.unwrap_or(stretch_compliance);
+        Ok(Self { mass, mean, weight, stretch_compliance, bend_compliance, shear_compliance })
     }
 }
 

@@ -82,8 +82,23 @@ pub struct Substep<'a> {
     pub stretch_beta: f32,
     /// α m / (h/n)² for bend bars.
     pub bend_beta: f32,
+    /// α m / (h/n)² for shear bars (a grid's diagonals).
+    pub shear_beta: f32,
     /// The tether slack when tethers are on.
     pub tether_slack: Option<f32>,
+}
+
+impl Substep<'_> {
+    /// β of each bar kind, indexed as the fast layouts index them: 0
+    /// structural, 1 bend, 2 shear.
+    pub fn betas(&self) -> [f32; 3] {
+        [self.stretch_beta, self.bend_beta, self.shear_beta]
+    }
+
+    /// Whether any bar is compliant (then the passes keep λ).
+    pub fn compliant(&self) -> bool {
+        self.betas().iter().any(|&b| b > 0.0)
+    }
 }
 
 /// A solver: the state of the cloth in some layout, and how each phase of

@@ -164,7 +164,8 @@ pub fn particle_masses(mesh: &ClothMesh, density: f32) -> Result<Vec<f32>, Param
 /// α_s = Σ L_e² / (2 k_s A) over the structural bars, m/N.
 pub fn stretch_compliance(mesh: &ClothMesh, stiffness: f32) -> Result<f32, ParamError> {
     let area = rest_area(mesh, "stretch_stiffness", stiffness)?;
-    let sum = sum_of_powers(mesh, BarKind::Structural, 2);
+    // The diagonals (shear bars) count: they share the load of a stretch.
+    let sum = sum_of_powers(mesh, BarKind::Structural, 2) + sum_of_powers(mesh, BarKind::Shear, 2);
     Ok((sum / (2.0 * f64::from(stiffness) * f64::from(area))) as f32)
 }
 

@@ -136,6 +136,14 @@ fn accuracy_controls(ui: &mut Ui, p: &mut SolverParams) {
         .on_hover_text("XPBD compliance: 0 is rigid; larger is softer, whatever the passes.");
     ui.add(small_values(&mut p.bend_compliance, 1e-2, 1e-9, "rigid").text("bend α (m/N)"))
         .on_hover_text("XPBD compliance of bend bars: soft values let the cloth fold without stretching.");
+    let mut shear = p.shear_compliance.unwrap_or(p.stretch_compliance);
+    let shear_slider = ui.add(small_values(&mut shear, 1e-2, 1e-9, "rigid").text("shear α (m/N)")).on_hover_text(
+        "XPBD compliance of a grid's diagonals: soft values let the cloth shear flat instead of buckling into \
+         diagonal pleats. Until set, the stretch α.",
+    );
+    if shear_slider.changed() {
+        p.shear_compliance = Some(shear);
+    }
     ui.add(small_values(&mut p.tolerance, 0.1, 1e-6, "off").text("early stop"))
         .on_hover_text("Stop relaxing once every bar is within this strain (off: always all passes).");
     ui.horizontal(|ui| {

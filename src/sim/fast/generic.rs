@@ -30,7 +30,8 @@ struct ColouredBar {
     a: u32,
     b: u32,
     rest: f32,
-    bend: bool,
+    /// 0 structural, 1 bend, 2 shear (an index into [`Substep::betas`]).
+    kind: u8,
 }
 
 /// Particles in scene order, bars in colour order.
@@ -77,7 +78,11 @@ impl GenericLayout {
                 a: bars[i].a,
                 b: bars[i].b,
                 rest: bars[i].rest_length,
-                bend: bars[i].kind == BarKind::Bend,
+                kind: match bars[i].kind {
+                    BarKind::Structural => 0,
+                    BarKind::Bend => 1,
+                    BarKind::Shear => 2,
+                },
             })
             .collect();
         let mut layout = GenericLayout {
@@ -146,11 +151,11 @@ impl Solver for GenericLayout {
                 }
             }
         }
-        let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
+        let compliant = s.compliant();
         if compliant {
             self.multipliers.fill(0.0);
         }
-        let sweep = Sweep { betas: [s.stretch_beta, s.bend_beta], omega: s.over_relaxation, tolerance: s.tolerance };
+        let sweep = Sweep { betas: s.betas(), omega: s.over_relaxation, tolerance: s.tolerance };
         let mut sweeps = 0;
         for _ in 0..s.relaxations {
             sweeps += 1;
@@ -236,9 +241,9 @@ impl Solver for GenericLayout {
     }
 }
 
-/// What a sweep needs, by bar kind (0 structural, 1 bend).
+/// What a sweep needs, by bar kind (0 structural, 1 bend, 2 shear).
 struct Sweep {
-    betas: [f32; 2],
+    betas: [f32; 3],
     omega: f32,
     tolerance: f32,
 }
@@ -253,7 +258,7 @@ fn relax_all<const XPBD: bool>(
 ) -> f32 {
     let mut worst = f32::NEG_INFINITY;
     for (bar, mu) in bars.iter().zip(multipliers) {
-        let kind = usize::from(bar.bend);
+        let kind = usize::from(bar.kind);
         let (mut a, mut b) = (particles[bar.a as usize], particles[bar.b as usize]);
         let (wa, wb) = (a.weight, b.weight);
         let v = relax_pair::<f32, XPBD>(

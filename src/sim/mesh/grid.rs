@@ -164,10 +164,10 @@ impl Grid {
                 if r + 1 < rows {
                     bars.push((i, idx(c, r + 1), BarKind::Structural));
                     if self.shear && c + 1 < cols {
-                        bars.push((i, idx(c + 1, r + 1), BarKind::Structural));
+                        bars.push((i, idx(c + 1, r + 1), BarKind::Shear));
                     }
                     if self.shear && c >= 1 {
-                        bars.push((i, idx(c - 1, r + 1), BarKind::Structural));
+                        bars.push((i, idx(c - 1, r + 1), BarKind::Shear));
                     }
                 }
                 if self.bend && c + 2 < cols {

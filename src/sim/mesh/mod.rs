@@ -104,9 +104,14 @@ pub use grid::{Grid, GridPlane, Pins};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum BarKind {
-    /// A bar between immediate neighbours: grid edges and diagonals, the
-    /// edges of a triangle mesh, every bar of an adjacency list.
+    /// A bar between immediate neighbours along the cloth's threads: a
+    /// grid's horizontal and vertical bars, the edges of a triangle mesh,
+    /// every bar of an adjacency list.
     Structural,
+    /// A grid's diagonal bar, across a cell: it resists shear, which woven
+    /// cloth barely does (the seed counts it structural, and by default it
+    /// is as stiff: `shear_compliance` unset takes `stretch_compliance`).
+    Shear,
     /// A bar to a particle two away, which resists folding (the dashed bars of
     /// the seed's Figure 2, or the bar across an interior triangle edge).
     Bend,
@@ -121,7 +126,7 @@ pub struct Bar {
     pub b: u32,
     /// The length the bar is relaxed towards, in metres; always > 0.
     pub rest_length: f32,
-    /// Structural or bend.
+    /// Structural, shear or bend.
     pub kind: BarKind,
 }
 
@@ -523,17 +528,7 @@ impl ClothMesh {
     /// every structural bar. The inextensible projection keeps the edges at
     /// their rest lengths ([`crate::sim::inextensible`]).
     pub fn is_edge(&self, bar: &Bar) -> bool {
-        if bar.kind != BarKind::Structural {
-            return false;
-        }
-        match self.grid {
-            None => true,
-            Some(shape) => {
-                let (a, b) = (bar.a.min(bar.b), bar.a.max(bar.b));
-                let same_row = a / shape.columns == b / shape.columns;
-                (b - a == 1 && same_row) || b - a == shape.columns
-            }
-        }
+        bar.kind == BarKind::Structural
     }
     /// The axis-aligned box around the initial positions: (min, max).
     pub fn bounds(&self) -> (Vec3, Vec3) {
@@ -605,7 +600,8 @@ mod tests {
         for bar in mesh.bars() {
             let l = bar.rest_length;
             let ok = match bar.kind {
-                BarKind::Structural => (l - s).abs() < 1e-6 || (l - s * 2f32.sqrt()).abs() < 1e-6,
+                BarKind::Structural => (l - s).abs() < 1e-6,
+                BarKind::Shear => (l - s * 2f32.sqrt()).abs() < 1e-6,
                 BarKind::Bend => (l - 2.0 * s).abs() < 1e-6,
             };
             assert!(ok, "{bar:?}");

@@ -70,6 +70,10 @@ pub(crate) const PARALLEL_PARTICLES: usize = 16_384;
 const ROTATED: u32 = 1 << 31;
 /// Marks an operation on bend bars (in `Op::a`).
 const BEND: u32 = 1 << 31;
+/// Marks an operation on shear bars, the diagonals (in `Op::a`).
+const SHEAR: u32 = 1 << 30;
+/// Bar kinds with their own shares and compliance (see [`kind_index`]).
+const KINDS: usize = 3;
 
 type Slot = Point<F32x8>;
 
@@ -113,15 +117,18 @@ impl Offset {
     }
 }
 
-/// Index of a bar kind's weights and compliance: 0 structural, 1 bend.
+/// Index of a bar kind's weights and compliance: 0 structural, 1 bend,
+/// 2 shear (as [`crate::sim::step::Substep::betas`]).
 fn kind_index(kind: BarKind) -> usize {
     match kind {
         BarKind::Structural => 0,
         BarKind::Bend => 1,
+        BarKind::Shear => 2,
     }
 }
 
-/// One 8-bar operation: slots `a & !BEND` and `b & !ROTATED` of a tile.
+/// One 8-bar operation: slots `a & !(BEND | SHEAR)` and `b & !ROTATED` of a
+/// tile.
 #[derive(Clone, Copy, Debug)]
 struct Op {
     a: u32,
@@ -131,13 +138,19 @@ struct Op {
 
 impl Op {
     fn slots(self) -> (usize, usize) {
-        ((self.a & !BEND) as usize, (self.b & !ROTATED) as usize)
+        ((self.a & !(BEND | SHEAR)) as usize, (self.b & !ROTATED) as usize)
     }
     fn rotated(self) -> bool {
         self.b & ROTATED != 0
     }
     fn kind(self) -> usize {
-        usize::from(self.a & BEND != 0)
+        if self.a & BEND != 0 {
+            1
+        } else if self.a & SHEAR != 0 {
+            2
+        } else {
+            0
+        }
     }
 }
 
@@ -170,10 +183,10 @@ struct Tile {
     /// as a weightless (fixed) partner would. Empty when the tile has no
     /// padding, which is then never looked at.
     presence: Vec<F32x8>,
-    /// The equal-mass shares of every slot for structural and for bend bars
+    /// The equal-mass shares of every slot for structural, bend and shear bars
     /// (see [`super::kernel::relax_pair_shared`]), kept in step with
     /// `weight` while every weight is 0 or 1.
-    shared: [Vec<Weights<F32x8>>; 2],
+    shared: [Vec<Weights<F32x8>>; KINDS],
     /// μ = βλ of every operation's eight bars (compliant bars only).
     multipliers: Vec<F32x8>,
     /// Each particle's tether anchor position, and its rest path length
@@ -253,8 +266,8 @@ pub(crate) struct GridLayout {
     parallel: bool,
     /// Every inverse mass is 0 or 1: the sweeps use the shares.
     uniform: bool,
-    /// The shares `shared` was computed with, structural and bend.
-    shares: [Shares; 2],
+    /// The shares `shared` was computed with: structural, bend and shear.
+    shares: [Shares; KINDS],
 }
 
 impl GridLayout {
@@ -319,7 +332,7 @@ impl GridLayout {
             tethers,
             parallel: positions.len() >= PARALLEL_PARTICLES,
             uniform: true,
-            shares: [Shares::new(0.0, 1.0); 2],
+            shares: [Shares::new(0.0, 1.0); KINDS],
         };
         layout.write_state(positions, previous, inverse_mass);
 
@@ -331,7 +344,11 @@ impl GridLayout {
                 if r + dr >= rows {
                     continue;
                 }
-                let bend = if kind == BarKind::Bend { BEND } else { 0 };
+                let bend = match kind {
+                    BarKind::Bend => BEND,
+                    BarKind::Shear => SHEAR,
+                    BarKind::Structural => 0,
+                };
                 // Bars along a row share particles with their neighbours:
                 // relax every other one (H) or every other pair (BH) first,
                 // so consecutive operations are independent.
@@ -429,7 +446,7 @@ impl GridLayout {
     }
 
     /// Sets the shares for β and ω, recomputing the slots' if they changed.
-    fn use_shares(&mut self, shares: [Shares; 2]) {
+    fn use_shares(&mut self, shares: [Shares; KINDS]) {
         if shares != self.shares {
             self.shares = shares;
             self.refresh_shares();

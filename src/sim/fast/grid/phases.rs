@@ -58,7 +58,7 @@ impl Solver for GridLayout {
                 f32::NEG_INFINITY
             });
         }
-        let compliant = s.stretch_beta > 0.0 || s.bend_beta > 0.0;
+        let compliant = s.compliant();
         if compliant {
             for tile in &mut self.tiles {
                 tile.multipliers.clear();
@@ -66,12 +66,12 @@ impl Solver for GridLayout {
                 tile.seam_multipliers.fill(0.0);
             }
         }
-        self.use_shares([Shares::new(s.stretch_beta, s.over_relaxation), Shares::new(s.bend_beta, s.over_relaxation)]);
+        self.use_shares(s.betas().map(|beta| Shares::new(beta, s.over_relaxation)));
         let sweep = Sweep {
             uniform: self.uniform,
             ops: &self.ops,
             tolerance: s.tolerance,
-            betas: [s.stretch_beta, s.bend_beta],
+            betas: s.betas(),
             omega: s.over_relaxation,
             compliant,
         };

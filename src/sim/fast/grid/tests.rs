@@ -57,6 +57,7 @@ fn substep(relaxations: u32) -> Substep<'static> {
         over_relaxation: 1.0,
         stretch_beta: 0.0,
         bend_beta: 0.0,
+        shear_beta: 0.0,
         tether_slack: None,
     }
 }
@@ -147,6 +148,7 @@ fn overlapped_sweeps_are_bit_identical_to_sequential_ones() {
             accel: Vec3::new(0.0, -1e-3, 0.0),
             stretch_beta: compliance,
             bend_beta: 10.0 * compliance,
+            shear_beta: 3.0 * compliance,
             over_relaxation: 1.3,
             ..substep(7)
         };
