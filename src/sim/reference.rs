@@ -23,7 +23,7 @@
 use glam::Vec3;
 
 use super::contact::ContactStep;
-use super::mesh::{Bar, BarKind};
+use super::mesh::Bar;
 use super::relax::{project_bar, project_bar_compliant};
 use super::self_contact::{SelfContact, SelfContactStep};
 use super::step::{Solver, Substep};
@@ -92,11 +92,7 @@ impl ReferenceSolver {
             if wa + wb > 0.0 {
                 worst = worst.max((xa.distance(xb) - bar.rest_length).abs() / bar.rest_length);
             }
-            let beta = match bar.kind {
-                BarKind::Structural => s.stretch_beta,
-                BarKind::Shear => s.shear_beta,
-                BarKind::Bend => s.bend_beta,
-            };
+            let beta = s.betas()[bar.kind.index()];
             let (da, db) = project_bar_compliant(xa, xb, bar.rest_length, wa, wb, beta, lambda, s.over_relaxation);
             self.positions[a] += da;
             self.positions[b] += db;

@@ -89,9 +89,8 @@ pub struct Substep<'a> {
 }
 
 impl Substep<'_> {
-    /// β of each bar kind, indexed as the fast layouts index them: 0
-    /// structural, 1 bend, 2 shear.
-    pub fn betas(&self) -> [f32; 3] {
+    /// β of each bar kind, by [`crate::sim::BarKind::index`].
+    pub fn betas(&self) -> [f32; crate::sim::BarKind::COUNT] {
         [self.stretch_beta, self.bend_beta, self.shear_beta]
     }
 

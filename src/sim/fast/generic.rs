@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use super::kernel::{Point, excess, integrate, relax_pair, settle, tether};
 use crate::sim::contact::ContactStep;
-use crate::sim::mesh::{Bar, BarKind};
+use crate::sim::mesh::Bar;
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
@@ -30,7 +30,7 @@ struct ColouredBar {
     a: u32,
     b: u32,
     rest: f32,
-    /// 0 structural, 1 bend, 2 shear (an index into [`Substep::betas`]).
+    /// [`crate::sim::BarKind::index`]: an index into [`Substep::betas`].
     kind: u8,
 }
 
@@ -78,11 +78,7 @@ impl GenericLayout {
                 a: bars[i].a,
                 b: bars[i].b,
                 rest: bars[i].rest_length,
-                kind: match bars[i].kind {
-                    BarKind::Structural => 0,
-                    BarKind::Bend => 1,
-                    BarKind::Shear => 2,
-                },
+                kind: bars[i].kind.index() as u8,
             })
             .collect();
         let mut layout = GenericLayout {
@@ -243,7 +239,7 @@ impl Solver for GenericLayout {
 
 /// What a sweep needs, by bar kind (0 structural, 1 bend, 2 shear).
 struct Sweep {
-    betas: [f32; 3],
+    betas: [f32; crate::sim::BarKind::COUNT],
     omega: f32,
     tolerance: f32,
 }

@@ -117,6 +117,21 @@ pub enum BarKind {
     Bend,
 }
 
+impl BarKind {
+    /// How many kinds there are.
+    pub const COUNT: usize = 3;
+
+    /// The kind's index into per-kind tables such as
+    /// [`crate::sim::step::Substep::betas`]: 0 structural, 1 bend, 2 shear.
+    pub fn index(self) -> usize {
+        match self {
+            BarKind::Structural => 0,
+            BarKind::Bend => 1,
+            BarKind::Shear => 2,
+        }
+    }
+}
+
 /// A bar: two particles that the relaxation keeps at `rest_length`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Bar {

@@ -68,12 +68,11 @@ const TARGET_BLOCK: usize = 8;
 pub(crate) const PARALLEL_PARTICLES: usize = 16_384;
 /// Marks an operation whose far slot is rotated by one lane (in `Op::b`).
 const ROTATED: u32 = 1 << 31;
-/// Marks an operation on bend bars (in `Op::a`).
-const BEND: u32 = 1 << 31;
-/// Marks an operation on shear bars, the diagonals (in `Op::a`).
-const SHEAR: u32 = 1 << 30;
-/// Bar kinds with their own shares and compliance (see [`kind_index`]).
-const KINDS: usize = 3;
+/// The bar kind of an operation ([`BarKind::index`]) sits in the top two
+/// bits of `Op::a`.
+const KIND_SHIFT: u32 = 30;
+/// Bar kinds with their own shares and compliance.
+const KINDS: usize = BarKind::COUNT;
 
 type Slot = Point<F32x8>;
 
@@ -117,18 +116,8 @@ impl Offset {
     }
 }
 
-/// Index of a bar kind's weights and compliance: 0 structural, 1 bend,
-/// 2 shear (as [`crate::sim::step::Substep::betas`]).
-fn kind_index(kind: BarKind) -> usize {
-    match kind {
-        BarKind::Structural => 0,
-        BarKind::Bend => 1,
-        BarKind::Shear => 2,
-    }
-}
-
-/// One 8-bar operation: slots `a & !(BEND | SHEAR)` and `b & !ROTATED` of a
-/// tile.
+/// One 8-bar operation: slots `a` (below its kind bits) and `b & !ROTATED`
+/// of a tile.
 #[derive(Clone, Copy, Debug)]
 struct Op {
     a: u32,
@@ -138,19 +127,13 @@ struct Op {
 
 impl Op {
     fn slots(self) -> (usize, usize) {
-        ((self.a & !(BEND | SHEAR)) as usize, (self.b & !ROTATED) as usize)
+        ((self.a & ((1 << KIND_SHIFT) - 1)) as usize, (self.b & !ROTATED) as usize)
     }
     fn rotated(self) -> bool {
         self.b & ROTATED != 0
     }
     fn kind(self) -> usize {
-        if self.a & BEND != 0 {
-            1
-        } else if self.a & SHEAR != 0 {
-            2
-        } else {
-            0
-        }
+        (self.a >> KIND_SHIFT) as usize
     }
 }
 
@@ -344,11 +327,7 @@ impl GridLayout {
                 if r + dr >= rows {
                     continue;
                 }
-                let bend = match kind {
-                    BarKind::Bend => BEND,
-                    BarKind::Shear => SHEAR,
-                    BarKind::Structural => 0,
-                };
+                let kind_bits = (kind.index() as u32) << KIND_SHIFT;
                 // Bars along a row share particles with their neighbours:
                 // relax every other one (H) or every other pair (BH) first,
                 // so consecutive operations are independent.
@@ -360,11 +339,15 @@ impl GridLayout {
                     let kb = k as isize + dc;
                     let op = if kb < 0 {
                         // A bar to the previous block: seen from its lower end.
-                        Op { a: slot(r + dr, (kb + block as isize) as usize) | bend, b: slot(r, k) | ROTATED, rest }
+                        Op {
+                            a: slot(r + dr, (kb + block as isize) as usize) | kind_bits,
+                            b: slot(r, k) | ROTATED,
+                            rest,
+                        }
                     } else if kb as usize >= block {
-                        Op { a: slot(r, k) | bend, b: slot(r + dr, kb as usize - block) | ROTATED, rest }
+                        Op { a: slot(r, k) | kind_bits, b: slot(r + dr, kb as usize - block) | ROTATED, rest }
                     } else {
-                        Op { a: slot(r, k) | bend, b: slot(r + dr, kb as usize), rest }
+                        Op { a: slot(r, k) | kind_bits, b: slot(r + dr, kb as usize), rest }
                     };
                     // Bars between fixed particles stay, as weightless
                     // no-ops, so a pin is a write of a weight. (Lane 0 of
@@ -379,7 +362,7 @@ impl GridLayout {
                         let (a, b) = (locate(c, r), locate(cb as usize, r + dr));
                         // Stored with the lower tile first (A bars point left).
                         let (a, b) = if a.tile < b.tile { (a, b) } else { (b, a) };
-                        let kind = kind_index(kind) as u8;
+                        let kind = kind.index() as u8;
                         layout.tiles[a.tile as usize].seams.push(SeamBar { a, b, rest, kind });
                     }
                 }

@@ -21,7 +21,7 @@ pub(super) struct Sweep<'a> {
     pub(super) ops: &'a [Op],
     pub(super) tolerance: f32,
     /// β of structural, bend and shear bars.
-    pub(super) betas: [f32; 3],
+    pub(super) betas: [f32; crate::sim::BarKind::COUNT],
     /// ω, over-relaxation.
     pub(super) omega: f32,
     /// Whether any bar is compliant (then μ is kept).
@@ -195,7 +195,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
     position: &mut [Slot],
     weight: &[F32x8],
     presence: &[F32x8],
-    shared: &[Vec<Weights<F32x8>>; super::KINDS],
+    shared: &[Vec<Weights<F32x8>>; crate::sim::BarKind::COUNT],
     multipliers: &mut [F32x8],
     j: usize,
     op: Op,
