@@ -9,7 +9,7 @@
 //! - [`ui`] (feature `viewer`): the egui panel, returning commands.
 //! - [`app`] (feature `viewer`): the window, and the viewer it shows.
 #![warn(missing_docs)]
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 #[cfg(feature = "viewer")]
 pub mod app;

@@ -2,36 +2,33 @@
 //!
 //! A greedy colouring gives every bar the smallest colour not yet used by a
 //! bar at either of its ends; bars are then relaxed colour by colour (in
-//! creation order within a colour). Bars of one colour share no particle, so
-//! each projection is independent of the one before it and the CPU overlaps
-//! them, instead of waiting on the previous projection's result as the
-//! creation-order loop does. Positions and the inverse mass sit together in 16
-//! bytes, one load per bar end.
+//! creation order within a colour), eight at a time in SIMD lanes
+//! ([`sweep`]). Bars of one colour share no particle, so each projection is
+//! independent of the others in its colour: the lanes compute what one bar at
+//! a time would, and the creation-order loop's wait on the previous
+//! projection's result is gone. Positions and the inverse mass sit together
+//! in 16 bytes, one load per bar end.
+
+mod colouring;
+mod sweep;
 
 use glam::Vec3;
 
-use super::kernel::{Point, excess, integrate, relax_pair, settle, tether};
+use super::kernel::{Point, integrate, settle, tether};
 use crate::sim::contact::ContactStep;
 use crate::sim::mesh::Bar;
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
+use colouring::BlockedBars;
+use sweep::Sweep;
 
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(16))]
 struct Particle {
     position: Point<f32>,
     /// Inverse mass relative to m (0: fixed).
     weight: f32,
-}
-
-#[derive(Clone, Copy, Debug)]
-struct ColouredBar {
-    a: u32,
-    b: u32,
-    rest: f32,
-    /// [`crate::sim::BarKind::index`]: an index into [`Substep::betas`].
-    kind: u8,
 }
 
 /// Particles in scene order, bars in colour order.
@@ -40,16 +37,9 @@ pub(crate) struct GenericLayout {
     particles: Vec<Particle>,
     displacement: Vec<[f32; 3]>,
     predicted: Vec<[f32; 3]>,
-    bars: Vec<ColouredBar>,
-    /// μ = βλ of every bar (compliant bars only).
-    multipliers: Vec<f32>,
-    colours: usize,
+    bars: BlockedBars,
     tethers: Option<Tethers>,
 }
-
-/// Most colours tracked; bars that find none free go in one last group, which
-/// is still a correct Gauss–Seidel sweep, only not free of dependencies.
-const MAX_COLOURS: u32 = 63;
 
 impl GenericLayout {
     pub(crate) fn new(
@@ -59,35 +49,11 @@ impl GenericLayout {
         bars: &[Bar],
         tethers: Option<Tethers>,
     ) -> Self {
-        let mut used = vec![0u64; positions.len()];
-        let mut coloured: Vec<(u32, usize)> = Vec::with_capacity(bars.len());
-        for (i, bar) in bars.iter().enumerate() {
-            let (a, b) = (bar.a as usize, bar.b as usize);
-            let colour = (!(used[a] | used[b])).trailing_zeros().min(MAX_COLOURS);
-            if colour < MAX_COLOURS {
-                used[a] |= 1 << colour;
-                used[b] |= 1 << colour;
-            }
-            coloured.push((colour, i));
-        }
-        coloured.sort_by_key(|&(colour, i)| (colour, i));
-        let colours = coloured.last().map_or(0, |&(c, _)| c as usize + 1);
-        let bars: Vec<ColouredBar> = coloured
-            .iter()
-            .map(|&(_, i)| ColouredBar {
-                a: bars[i].a,
-                b: bars[i].b,
-                rest: bars[i].rest_length,
-                kind: bars[i].kind.index() as u8,
-            })
-            .collect();
         let mut layout = GenericLayout {
             particles: vec![Particle::default(); positions.len()],
             displacement: vec![[0.0; 3]; positions.len()],
             predicted: vec![[0.0; 3]; positions.len()],
-            multipliers: vec![0.0; bars.len()],
-            bars,
-            colours,
+            bars: BlockedBars::new(bars, positions.len()),
             tethers,
         };
         for (p, &w) in layout.particles.iter_mut().zip(inverse_mass) {
@@ -97,11 +63,6 @@ impl GenericLayout {
             layout.set_particle(i, positions[i], previous[i]);
         }
         layout
-    }
-
-    /// Number of colours the bars were split into.
-    pub(crate) fn colours(&self) -> usize {
-        self.colours
     }
 
     fn set_initial_velocity(&mut self, velocity: &[Vec3], dt: f32, extra: Vec3) {
@@ -147,19 +108,14 @@ impl Solver for GenericLayout {
                 }
             }
         }
-        let compliant = s.compliant();
-        if compliant {
-            self.multipliers.fill(0.0);
+        if s.compliant() {
+            self.bars.reset_multipliers();
         }
         let sweep = Sweep { betas: s.betas(), omega: s.over_relaxation, tolerance: s.tolerance };
         let mut sweeps = 0;
         for _ in 0..s.relaxations {
             sweeps += 1;
-            let worst = if compliant {
-                relax_all::<true>(&mut self.particles, &self.bars, &mut self.multipliers, &sweep)
-            } else {
-                relax_all::<false>(&mut self.particles, &self.bars, &mut self.multipliers, &sweep)
-            };
+            let worst = self.bars.relax_pass(&mut self.particles, &sweep);
             if s.tolerance > 0.0 && worst <= 0.0 {
                 break;
             }
@@ -229,49 +185,22 @@ impl Solver for GenericLayout {
     }
 
     fn describe(&self) -> String {
-        format!("coloured: {} colours, one thread", self.colours())
+        let (colours, boundary_colours) = self.bars.colours();
+        let lanes =
+            if super::simd::level() >= super::simd::SimdLevel::Avx2 { "8 bars a lane op" } else { "one bar at a time" };
+        match self.bars.blocks.len() {
+            1 => format!("coloured: {colours} colours, {lanes}, one thread"),
+            blocks => {
+                let (boundary, all) = self.bars.boundary_share();
+                format!(
+                    "coloured: {blocks} blocks of ≤ {colours} colours on {} threads, {lanes}; boundary {boundary} of {all} bars in {boundary_colours} colours",
+                    rayon::current_num_threads()
+                )
+            }
+        }
     }
 
     fn boxed_clone(&self) -> Box<dyn Solver> {
         Box::new(self.clone())
     }
-}
-
-/// What a sweep needs, by bar kind (0 structural, 1 bend, 2 shear).
-struct Sweep {
-    betas: [f32; crate::sim::BarKind::COUNT],
-    omega: f32,
-    tolerance: f32,
-}
-
-/// One sweep over every bar; returns `max(|len − rest| − tolerance·rest)` over
-/// the bars that can move.
-fn relax_all<const XPBD: bool>(
-    particles: &mut [Particle],
-    bars: &[ColouredBar],
-    multipliers: &mut [f32],
-    sweep: &Sweep,
-) -> f32 {
-    let mut worst = f32::NEG_INFINITY;
-    for (bar, mu) in bars.iter().zip(multipliers) {
-        let kind = usize::from(bar.kind);
-        let (mut a, mut b) = (particles[bar.a as usize], particles[bar.b as usize]);
-        let (wa, wb) = (a.weight, b.weight);
-        let v = relax_pair::<f32, XPBD>(
-            &mut a.position,
-            wa,
-            &mut b.position,
-            wb,
-            bar.rest,
-            mu,
-            sweep.betas[kind],
-            sweep.omega,
-        );
-        particles[bar.a as usize] = a;
-        particles[bar.b as usize] = b;
-        if sweep.tolerance > 0.0 {
-            worst = worst.max(excess(v, wa, wb, sweep.tolerance * bar.rest));
-        }
-    }
-    worst
 }
