@@ -31,6 +31,9 @@ pub struct RunSummary {
     /// The fast solver's SIMD level (`DRAPE_SIMD`, [`crate::sim::fast::simd`]),
     /// and why it differs from the one asked for, if it does.
     pub simd: String,
+    /// How the solver lays the cloth out (lanes, colours, blocks, threads):
+    /// [`crate::sim::Simulation::solver_description`].
+    pub layout: String,
     /// Wall-clock seconds per step, stepping only (output excluded).
     pub seconds_per_step: f64,
     /// Bar projections per wall-clock second.
@@ -70,6 +73,7 @@ impl std::fmt::Display for RunSummary {
             writeln!(f, "relaxations          {} ({} solver)", self.relaxations, self.solver)?;
         }
         writeln!(f, "SIMD level           {}", self.simd)?;
+        writeln!(f, "solver layout        {}", self.layout)?;
         writeln!(f, "wall time per step   {}", format_duration(self.seconds_per_step))?;
         writeln!(f, "bar projections/s    {:.3e}", self.projections_per_second)?;
         writeln!(f, "max strain           {:.4e}", self.strain.max)?;
@@ -182,6 +186,7 @@ pub fn run(
         substeps: sim.params().substeps,
         solver: sim.solver().name(),
         simd: crate::sim::fast::simd::describe(),
+        layout: sim.solver_description(),
         seconds_per_step: if steps > 0 { seconds / steps as f64 } else { 0.0 },
         projections_per_second: if seconds > 0.0 { projections / seconds } else { 0.0 },
         time: sim.time(),

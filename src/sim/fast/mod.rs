@@ -21,8 +21,12 @@
 //!   tiles of eight blocks of columns, swept in parallel with rayon, even
 //!   tiles then odd ones. The tiling depends on the grid only, so every
 //!   thread count gives the same bits.
-//! - **Any mesh** (module `generic`): bars are greedily coloured and relaxed colour
-//!   by colour, one thread.
+//! - **Any mesh** (module `generic`): bars are greedily coloured and relaxed
+//!   colour by colour, eight bars of a colour in one AVX2 register (the one
+//!   place with `unsafe`: `std::arch` transposes, measured 2.5× faster than
+//!   one bar at a time); meshes of at least 16 384 particles are cut into
+//!   blocks of consecutive particles swept in parallel, then the bars
+//!   between blocks.
 //! - **Phases.** Both layouts implement [`super::step::Solver`]: the order
 //!   of the phases is written once, in [`super::step::run_substep`].
 //!
