@@ -229,9 +229,31 @@ fn self_collision(c: &mut Criterion) {
 /// diagonals) in the x–y plane, `spacing` apart, hung by its top row: a
 /// triangle mesh, so it takes the coloured path, not the grid's lanes.
 fn triangle_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
-    let index = |c: u32, r: u32| r * n + c;
-    let positions =
-        (0..n).flat_map(|r| (0..n).map(move |c| Vec3::new(c as f32 * spacing, -(r as f32) * spacing, 0.0))).collect();
+    numbered_sheet(n, spacing, |i| i)
+}
+
+/// [`triangle_sheet`] with its particles numbered in a shuffled order (a
+/// fixed permutation), as a mesh built by code or subdivided can leave them.
+fn shuffled_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
+    let mut new_index: Vec<u32> = (0..n * n).collect();
+    let mut state = 12345u64;
+    for i in (1..new_index.len()).rev() {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        new_index.swap(i, (state >> 33) as usize % (i + 1));
+    }
+    numbered_sheet(n, spacing, |i| new_index[i as usize])
+}
+
+/// An n × n triangulated sheet hung by its top row; particle (c, r) gets
+/// the index `number(r·n + c)` (a permutation).
+fn numbered_sheet(n: u32, spacing: f32, number: impl Fn(u32) -> u32) -> drape::sim::ClothMesh {
+    let index = |c: u32, r: u32| number(r * n + c);
+    let mut positions = vec![Vec3::ZERO; (n * n) as usize];
+    for r in 0..n {
+        for c in 0..n {
+            positions[index(c, r) as usize] = Vec3::new(c as f32 * spacing, -(r as f32) * spacing, 0.0);
+        }
+    }
     let mut triangles = Vec::with_capacity(2 * (n as usize - 1).pow(2));
     for r in 0..n - 1 {
         for c in 0..n - 1 {
@@ -243,13 +265,14 @@ fn triangle_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
             }
         }
     }
-    let pinned: Vec<u64> = (0..n).map(u64::from).collect();
+    let pinned: Vec<u64> = (0..n).map(|c| u64::from(index(c, 0))).collect();
     drape::sim::ClothMesh::from_triangles(positions, triangles, &pinned, None).expect("valid sheet")
 }
 
 /// Meshes that are not grids (OBJ files, triangle meshes) take the coloured
 /// path: the bundled tablecloth (1 801 vertices) and a 320 × 320
-/// triangulated sheet (102 400 vertices), 20 relaxations, light seed wind,
+/// triangulated sheet (102 400 vertices), in row order and shuffled (the
+/// layout renumbers it), 20 relaxations, light seed wind,
 /// reference beside fast on one thread and on all threads.
 fn meshes(c: &mut Criterion) {
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
@@ -268,7 +291,8 @@ fn meshes(c: &mut Criterion) {
     };
     let cases = [
         ("tablecloth", (*tablecloth.mesh).clone(), SolverParams { relaxations: 20, ..tablecloth.params.clone() }),
-        ("sheet-320", sheet, sheet_params),
+        ("sheet-320", sheet, sheet_params.clone()),
+        ("sheet-320-shuffled", shuffled_sheet(320, 0.02), sheet_params),
     ];
     for (mesh_name, mesh, params) in cases {
         let runs: [(&str, SolverKind, Option<&rayon::ThreadPool>); 3] = [

@@ -1,6 +1,5 @@
 //! The TOML schema of a scene file and its translation into sim types.
 
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -8,6 +7,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::colliders::{self, ColliderTable};
+pub use super::obj::parse_obj;
 use super::{CameraHint, Origin, Scene, SceneErrorKind, bundled};
 use crate::sim::{
     Air, ClothMesh, Grid, GridPlane, Material, ParamError, Pins, SolverKind, SolverParams, Start, Wind, units,
@@ -552,32 +552,6 @@ fn read_obj(path: &Path) -> Result<(String, String), SceneErrorKind> {
     }
     let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
     Ok((display, text))
-}
-
-/// Reads the vertices and faces of OBJ text (faces triangulated as fans; all
-/// objects merged; normals, texture coordinates and materials ignored).
-pub fn parse_obj(text: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), String> {
-    let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    let mut reader = BufReader::new(text.as_bytes());
-    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
-        .map_err(|e| e.to_string())?;
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for model in &models {
-        let mesh = &model.mesh;
-        let base = positions.len();
-        if base + mesh.positions.len() / 3 > crate::sim::mesh::MAX_PARTICLES {
-            return Err(format!("more than {} vertices", crate::sim::mesh::MAX_PARTICLES));
-        }
-        positions.extend(mesh.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-        for t in mesh.indices.chunks_exact(3) {
-            triangles.push([t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]);
-        }
-    }
-    if positions.is_empty() {
-        return Err("it has no vertices".to_string());
-    }
-    Ok((positions, triangles))
 }
 
 fn camera_hint(c: &CameraTable) -> Result<CameraHint, SceneErrorKind> {

@@ -14,6 +14,7 @@
 mod bundled;
 pub mod colliders;
 mod file;
+mod obj;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -1,5 +1,6 @@
 use super::*;
 use crate::sim::{BarKind, Wind};
+use glam::Vec3;
 
 #[test]
 fn every_bundled_scene_loads() {
@@ -117,10 +118,25 @@ fn obj_text_parses_faces_as_triangles() {
     // An OBJ file that cannot be read names the scene's [obj] table.
     let e = err("[obj]\npath = \"x\"\n");
     assert!(e.contains("[obj]"), "{e}");
-    // A face naming vertices that do not exist is an error, from tobj or from the mesh check.
-    let bad = file::parse_obj("v 0 0 0\nf 1 2 3\n")
-        .and_then(|(p, t)| crate::sim::ClothMesh::from_triangles(p, t, &[], None).map_err(|e| e.to_string()));
-    assert!(bad.is_err(), "{bad:?}");
+    // A face naming vertices that do not exist is an error that says so.
+    let bad = file::parse_obj("v 0 0 0\nf 1 2 3\n").unwrap_err();
+    assert!(bad.contains("the file has 1"), "{bad}");
+    assert!(file::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").unwrap_err().contains("counts from 1"));
+    assert!(file::parse_obj("v 0 zero 0\n").unwrap_err().contains("line 1: 'zero'"));
+}
+
+#[test]
+fn obj_vertices_keep_the_files_numbering() {
+    // The faces use vertex 4 first and vertex 1 last; two objects share
+    // vertex 3; negative indices count back from the last vertex read; `v/t/n`
+    // forms name the vertex first. A loader numbering vertices by first use
+    // per object (as tobj does) would give [3, 4, 2] for the first face and
+    // split vertex 3 in two.
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvn 0 0 1\n\
+                o a\nf 4/1/1 3//1 2\no b\nf -2 -1 1\n";
+    let (p, t) = file::parse_obj(text).unwrap();
+    assert_eq!(p, vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)]);
+    assert_eq!(t, vec![[3, 2, 1], [2, 3, 0]]);
 }
 
 #[test]
