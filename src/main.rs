@@ -105,6 +105,11 @@ struct SolverOverrides {
     /// Newton iteration (0–1000).
     #[arg(long)]
     newton_smoothing: Option<u32>,
+    /// Passes over each coarser level of a grid (the grid taken 2, 4, 8, …
+    /// particles apart) after the relaxation: removes the smooth stretch
+    /// of a large cloth (0–100; 0 is off; grid meshes only).
+    #[arg(long)]
+    coarse_passes: Option<u32>,
     /// A fabric preset: cotton, silk, denim, leather, jersey or rubber
     /// (density, stiffness, friction, thickness; gravity kept as an
     /// acceleration). Applied before the other flags.
@@ -141,6 +146,7 @@ impl SolverOverrides {
         params.newton_iterations = self.newton_iterations.unwrap_or(params.newton_iterations);
         params.newton_tolerance = self.newton_tolerance.unwrap_or(params.newton_tolerance);
         params.newton_smoothing = self.newton_smoothing.unwrap_or(params.newton_smoothing);
+        params.coarse_passes = self.coarse_passes.unwrap_or(params.coarse_passes);
         params
     }
 }

@@ -89,6 +89,15 @@ fn large() {
     common::assert_golden("large", &render_scene("large", 3, false));
 }
 
+#[test]
+fn large_inextensible_without_pleats() {
+    // The 256 × 256 cloth after 3 s of its wind with soft shear and coarse
+    // passes: smooth, where `large` with 20 passes shows diagonal pleats
+    // by then (`drape render --scene large --steps 300`). About 1.5 s of
+    // stepping in the test build.
+    common::assert_golden("large-inextensible", &render_scene("large-inextensible", 300, false));
+}
+
 /// Rows of a texture copy start every 256 bytes; a width whose rows are not
 /// a multiple of that (37 × 4 = 148 bytes) must come back unpadded and intact.
 #[test]

@@ -26,6 +26,7 @@ pub const BUNDLED: &[BundledScene] = &[
     scene!("chain"),
     scene!("tablecloth"),
     scene!("large"),
+    scene!("large-inextensible"),
     scene!("drape-sphere"),
     scene!("table"),
     scene!("slope"),

@@ -112,6 +112,8 @@ pub struct SolverTable {
     pub newton_tolerance: f32,
     /// Edge passes after each Newton iteration (default 48).
     pub newton_smoothing: u32,
+    /// Passes per coarse level of a grid before the relaxation (0: off).
+    pub coarse_passes: u32,
 }
 
 impl Default for SolverTable {
@@ -143,6 +145,7 @@ impl Default for SolverTable {
             newton_iterations: p.newton_iterations,
             newton_tolerance: p.newton_tolerance,
             newton_smoothing: p.newton_smoothing,
+            coarse_passes: p.coarse_passes,
         }
     }
 }
@@ -314,6 +317,16 @@ pub(super) fn build(text: &str, origin: &Origin) -> Result<Scene, SceneErrorKind
         }
     };
     units::check_surface(&params, &mesh).map_err(param_error)?;
+    if params.coarse_passes > 0 && mesh.grid().is_none() {
+        return Err(invalid(
+            "solver.coarse_passes",
+            format!(
+                "{} needs a [grid]: the coarse levels are the grid's rows and columns taken 2, 4, 8, … apart; for \
+                 [obj] and [mesh] cloths use inextensible = true or tether_slack",
+                params.coarse_passes
+            ),
+        ));
+    }
     let read = |path: &str| -> Result<(Vec<Vec3>, Vec<[u32; 3]>), SceneErrorKind> {
         let (display, text) = obj_text(path, origin)?;
         parse_obj(&text).map_err(|message| SceneErrorKind::Obj { path: display, message })
@@ -424,6 +437,7 @@ fn solver_params(file: &SceneFile) -> Result<SolverParams, SceneErrorKind> {
         newton_iterations: s.newton_iterations,
         newton_tolerance: s.newton_tolerance,
         newton_smoothing: s.newton_smoothing,
+        coarse_passes: s.coarse_passes,
     };
     if let Some(table) = &file.material {
         let Some(material) = Material::from_name(&table.preset) else {

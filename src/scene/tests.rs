@@ -78,6 +78,11 @@ fn errors_name_the_key_and_the_allowed_range() {
     assert!(e.contains("solver.newton_tolerance") && e.contains("0 < newton_tolerance < 1"), "{e}");
     let e = err(&format!("[solver]\nnewton_smoothing = 5000\n{GRID}"));
     assert!(e.contains("solver.newton_smoothing"), "{e}");
+    let e = err(&format!("[solver]\ncoarse_passes = 101\n{GRID}"));
+    assert!(e.contains("solver.coarse_passes") && e.contains("from 0 to 100"), "{e}");
+    let e =
+        err("[solver]\ncoarse_passes = 2\n[mesh]\npositions = [[0.0,0.0,0.0],[1.0,0.0,0.0]]\nadjacency = [[1],[]]\n");
+    assert!(e.contains("solver.coarse_passes") && e.contains("needs a [grid]"), "{e}");
     let e = err(&format!("[solver]\ninextensible = \"yes\"\n{GRID}"));
     assert!(e.contains("inextensible"), "{e}");
 }

@@ -78,6 +78,7 @@ pub mod contact;
 pub mod exact;
 pub mod fast;
 pub mod health;
+pub mod hierarchy;
 pub mod hold;
 pub mod inextensible;
 pub mod material;

@@ -9,6 +9,7 @@ use super::aero::{AeroStep, Aerodynamics};
 use super::collider::{Collider, Motion, Pose};
 use super::contact::ContactStep;
 use super::fast;
+use super::hierarchy::{CoarseStep, Hierarchy};
 use super::hold::{Hold, Holds};
 use super::inextensible::{FastProjection, ProjectionError, ProjectionReport, ProjectionStep};
 use super::mesh::{Bar, ClothMesh};
@@ -67,6 +68,15 @@ pub enum SimError {
     /// The inextensible projection could not be set up for this mesh.
     #[error(transparent)]
     Projection(#[from] ProjectionError),
+    /// Coarse passes asked of a mesh that is not a grid.
+    #[error(
+        "coarse_passes = {passes} needs a grid mesh ([grid]): the coarse levels are the grid's rows and \
+         columns taken 2, 4, 8, … apart; for OBJ and adjacency meshes use inextensible = true or tethers"
+    )]
+    CoarseNeedsGrid {
+        /// The passes asked for.
+        passes: u32,
+    },
     /// A particle index outside the mesh.
     #[error("particle {index} does not exist: the mesh has {count} particles")]
     NoSuchParticle {
@@ -109,6 +119,8 @@ pub struct Simulation {
     dragged: Vec<(usize, Pose, Pose)>,
     /// The self-collide phase's hash grid, while self-collision is on.
     self_contact: Option<SelfContact>,
+    /// The coarse phase, while coarse passes are asked for (grids only).
+    hierarchy: Option<Hierarchy>,
     /// The project phase, while the cloth is inextensible.
     projection: Option<FastProjection>,
     /// Particles held toward targets (a grab).
@@ -148,6 +160,7 @@ impl Simulation {
         let solver = build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers);
         let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
         let projection = if params.inextensible { Some(FastProjection::new(&mesh)?) } else { None };
+        let hierarchy = hierarchy(&mesh, &params)?;
         let edges = mesh.bars().iter().filter(|b| mesh.is_edge(b)).copied().collect();
         Ok(Self {
             mesh,
@@ -161,6 +174,7 @@ impl Simulation {
             colliders: Vec::new(),
             dragged: Vec::new(),
             self_contact,
+            hierarchy,
             projection,
             holds: Holds::new(positions.len()),
             solver,
@@ -204,6 +218,8 @@ impl Simulation {
         params.validate()?;
         units::check_surface(&params, &self.mesh)?;
         let material = Derived::new(&self.mesh, &params)?;
+        let coarse_toggled = (params.coarse_passes > 0) != self.hierarchy.is_some();
+        let coarse = if coarse_toggled { hierarchy(&self.mesh, &params)? } else { None };
         let aero = if params.wind.air().is_some() == self.aero.is_some() && material.mass == self.material.mass {
             self.aero.take()
         } else {
@@ -221,6 +237,9 @@ impl Simulation {
         }
         if params.inextensible != self.projection.is_some() {
             self.projection = if params.inextensible { Some(FastProjection::new(&self.mesh)?) } else { None };
+        }
+        if coarse_toggled {
+            self.hierarchy = coarse;
         }
         self.material = material;
         let tethers_toggled = params.tether_slack.is_some() != self.params.tether_slack.is_some();
@@ -417,10 +436,12 @@ impl Simulation {
                     tolerance: p.newton_tolerance,
                     smoothing: p.newton_smoothing,
                 };
+                let coarse_step = CoarseStep { weights: &self.inverse_mass, passes: p.coarse_passes, parallel: true };
                 let holding = !self.holds.list.is_empty();
                 let phases = Phases {
                     air: self.aero.as_mut().zip(air_step.as_ref()),
                     hold: holding.then_some((&mut self.holds, &self.inverse_mass[..])),
+                    coarse: self.hierarchy.as_mut().map(|phase| (phase, &coarse_step)),
                     project: self.projection.as_mut().map(|phase| (phase, &project_step)),
                     self_contact: self.self_contact.as_mut().map(|phase| (phase, &self_step)),
                     contact: contact.as_ref(),
@@ -687,6 +708,15 @@ impl Derived {
 
 /// The air phase, when the wind is "air" (the mesh has triangles:
 /// [`units::check_surface`]).
+/// The coarse phase when `p` asks for coarse passes; an error on a mesh
+/// that is not a grid.
+fn hierarchy(mesh: &ClothMesh, p: &SolverParams) -> Result<Option<Hierarchy>, SimError> {
+    if p.coarse_passes == 0 {
+        return Ok(None);
+    }
+    Hierarchy::new(mesh).map(Some).ok_or(SimError::CoarseNeedsGrid { passes: p.coarse_passes })
+}
+
 fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived) -> Option<Aerodynamics> {
     p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass))
 }

@@ -17,6 +17,9 @@
 //!                toward its target, at most a_max (h/n)² ([`super::hold`])
 //! 2. relax       tethers, then `relaxations` Gauss–Seidel passes over the
 //!                bars (the seed's Figure 3, XPBD when compliant)
+//!    coarse      (grids, when on) the stretch the passes left taken out
+//!                on the grid coarsened 2, 4, 8, … times, coarsest first,
+//!                and interpolated down as a push ([`super::hierarchy`])
 //!    project     (when inextensible) Newton iterations that put every
 //!                edge back to its rest length at once
 //!                ([`super::inextensible`]), each followed by
@@ -50,6 +53,7 @@ use glam::Vec3;
 
 use super::aero::{AeroStep, Aerodynamics};
 use super::contact::ContactStep;
+use super::hierarchy::{CoarseStep, Hierarchy};
 use super::hold::Holds;
 use super::inextensible::{FastProjection, ProjectionStep};
 use super::self_contact::{SelfContact, SelfContactStep};
@@ -155,6 +159,8 @@ pub struct Phases<'a, 'b> {
     /// The hold phase, while particles are held, with every particle's
     /// weight.
     pub hold: Option<(&'a mut Holds, &'a [f32])>,
+    /// The coarse phase, on a grid with coarse passes.
+    pub coarse: Option<(&'a mut Hierarchy, &'a CoarseStep<'b>)>,
     /// The project phase, when the cloth is inextensible.
     pub project: Option<(&'a mut FastProjection, &'a ProjectionStep<'b>)>,
     /// The self-collide phase, when self-collision is on.
@@ -166,7 +172,7 @@ pub struct Phases<'a, 'b> {
 /// Runs one substep: the phases in their order, skipping what the scene
 /// does not need. Returns the relaxation passes made.
 pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 {
-    let Phases { air, hold, project, self_contact, contact } = phases;
+    let Phases { air, hold, coarse, project, self_contact, contact } = phases;
     // The Euler start (equation 2) ignores every force, the air's too.
     let push = air.filter(|_| s.first.is_none()).map(|(phase, step)| {
         solver.read(&mut phase.x, &mut phase.x_prev);
@@ -181,6 +187,10 @@ pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 
         solver.push(holds.compute(s.dt, weights));
     }
     let passes = solver.relax(s);
+    if let Some((phase, step)) = coarse {
+        solver.read(&mut phase.x, &mut phase.x_prev);
+        solver.push(phase.compute(step));
+    }
     if let Some((phase, step)) = project {
         solver.read(&mut phase.x, &mut phase.x_prev);
         solver.push(phase.compute(step));

@@ -70,7 +70,11 @@ pub fn panel(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) -> Vec
             commands.extend(scene_section(ui, state, model));
         });
         egui::CollapsingHeader::new("Solver").default_open(true).show(ui, |ui| {
-            let defaults = SceneDefaults { params: &model.scene.params, solver: model.scene.solver };
+            let defaults = SceneDefaults {
+                params: &model.scene.params,
+                solver: model.scene.solver,
+                grid: model.sim.mesh().grid().is_some(),
+            };
             let mut how =
                 format!("{}; {} passes last substep", model.sim.solver_description(), model.sim.last_passes());
             if let Some(r) = model.sim.last_projection() {
