@@ -197,8 +197,9 @@ pub struct SolverParams {
     /// cloth is curved and moving fast (the seed's wind moves its free edge
     /// further than a bar's length per step) it overshoots locally, and
     /// these cheap passes remove that local error so the next iteration
-    /// starts close (often none is then needed). Range `0 ..= 1000`,
-    /// default 48.
+    /// starts close (often none is then needed). At most this many: they
+    /// stop, in batches of 8, once every edge is within `newton_tolerance`.
+    /// Range `0 ..= 1000`, default 48.
     pub newton_smoothing: u32,
     /// Passes over each coarser grid of a grid mesh after the relaxation
     /// ([`super::hierarchy`], hierarchical position-based dynamics): the
