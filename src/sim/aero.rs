@@ -143,7 +143,7 @@ impl Aerodynamics {
     pub fn compute(&mut self, step: &AeroStep) -> &[Vec3] {
         let parallel = step.parallel && self.x.len() >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
         let air = step.air;
-        let time = step.time as f32;
+        let gusts = Field::new(&air, step.time as f32);
         {
             // Per particle, the air's velocity relative to it,
             // v_air(x) − (x − x_prev)/(h/n), so the triangles read one
@@ -153,7 +153,7 @@ impl Aerodynamics {
             let field = |((u, x), x_prev): ((&mut [Vec3], &[Vec3]), &[Vec3])| {
                 let mut cell = Cell::default();
                 for ((u, x), x_prev) in u.iter_mut().zip(x).zip(x_prev) {
-                    *u = gusting(&air, *x, time, &mut cell) - (*x - *x_prev) / dt;
+                    *u = gusts.at(*x, &mut cell) - (*x - *x_prev) / dt;
                 }
             };
             const CHUNK: usize = 2048;
@@ -197,18 +197,64 @@ impl Aerodynamics {
 
 /// v_air(x, t), m/s (module docs).
 pub fn air_velocity(air: &Air, x: Vec3, time: f32) -> Vec3 {
-    gusting(air, x, time, &mut Cell::default())
+    Field::new(air, time).at(x, &mut Cell::default())
 }
 
-/// [`air_velocity`] reusing the lattice values of the cell last visited.
-fn gusting(air: &Air, x: Vec3, time: f32, cell: &mut Cell) -> Vec3 {
-    let speed = air.velocity.length();
-    if air.gusts == 0.0 || speed == 0.0 {
-        return air.velocity;
+/// v_air(·, t) at one time: what does not depend on x computed once per
+/// substep, not per particle (the same operations in the same order, so
+/// the same bits).
+#[derive(Clone, Copy, Debug)]
+struct Field {
+    /// V, m/s.
+    mean: Vec3,
+    /// V t, metres.
+    shift: Vec3,
+    /// ℓ, metres.
+    scale: f32,
+    /// c t/τ: the pattern's own drift.
+    drift: Vec3,
+    /// g_t |V| / RMS of the noise, m/s.
+    amplitude: f32,
+    /// No gusts (or no wind): the air is V everywhere.
+    steady: bool,
+}
+
+impl Field {
+    fn new(air: &Air, time: f32) -> Self {
+        let speed = air.velocity.length();
+        let scale = air.gust_scale;
+        Self {
+            mean: air.velocity,
+            shift: air.velocity * time,
+            scale,
+            drift: DRIFT * (time / scale),
+            amplitude: air.gusts * speed / NOISE_RMS,
+            steady: air.gusts == 0.0 || speed == 0.0,
+        }
     }
-    let scale = air.gust_scale;
-    let q = (x - air.velocity * time) / scale + DRIFT * (time / scale);
-    air.velocity + value_noise(q, cell) * (air.gusts * speed / NOISE_RMS)
+
+    /// v_air(x, t), reusing the lattice values of the cell last visited.
+    #[inline]
+    fn at(&self, x: Vec3, cell: &mut Cell) -> Vec3 {
+        if self.steady {
+            return self.mean;
+        }
+        let q = (x - self.shift) / self.scale + self.drift;
+        self.mean + value_noise(q, cell) * self.amplitude
+    }
+}
+
+/// ⌊v⌋, exactly as `f32::floor` (which the x86-64 baseline build calls
+/// out of line): through the integer conversion while |v| < 2²³, above
+/// which every f32 is an integer already.
+#[inline]
+fn floor(v: f32) -> f32 {
+    if v.abs() < 8_388_608.0 {
+        let t = v as i32 as f32;
+        if t > v { t - 1.0 } else { t }
+    } else {
+        v
+    }
 }
 
 /// Drag plus lift on the triangle with corners `t` (module docs), capped so
@@ -254,7 +300,7 @@ struct Cell {
 /// gradient are smooth). One octave: a second at half the size costs as
 /// much again, and the flag's own flutter gives the finer detail.
 fn value_noise(q: Vec3, cell: &mut Cell) -> Vec3 {
-    let floor = q.floor();
+    let floor = Vec3::new(floor(q.x), floor(q.y), floor(q.z));
     let f = q - floor;
     let fade = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
     let key = [floor.x as i32, floor.y as i32, floor.z as i32];
@@ -348,6 +394,18 @@ mod tests {
         let v_air = vec![a.velocity; 3];
         let f = triangle_force(&a, 0.01, 0.001, [0, 1, 2], &x, &v_air);
         assert!((f.x * 0.01 / 0.001 - 8.0).abs() < 1e-3, "{f}");
+    }
+
+    #[test]
+    fn the_floor_is_f32s_floor() {
+        for v in
+            [0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999_999_8, -2.999_999_8, 8_388_607.5, -8_388_607.5, 1e9, -1e9, 3e38]
+        {
+            assert_eq!(floor(v), v.floor(), "{v}");
+        }
+        assert!(floor(f32::NAN).is_nan());
+        assert_eq!(floor(f32::INFINITY), f32::INFINITY);
+        assert_eq!(floor(f32::NEG_INFINITY), f32::NEG_INFINITY);
     }
 
     #[test]

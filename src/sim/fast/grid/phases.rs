@@ -137,14 +137,27 @@ impl Solver for GridLayout {
         });
     }
 
-    /// Positions and previous positions (x − d) in scene order.
+    /// Positions and previous positions (x − d) in scene order; in chunks
+    /// on the thread pool for large cloths (each particle read alone: the
+    /// same bits).
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        for (i, loc) in self.locations.iter().enumerate() {
-            let tile = &self.tiles[loc.tile as usize];
-            let (s, l) = (loc.slot as usize, loc.lane as usize);
-            let (p, d) = (&tile.position[s], &tile.displacement[s]);
-            positions[i] = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
-            previous[i] = positions[i] - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]);
+        const CHUNK: usize = 4096;
+        let tiles = &self.tiles;
+        let chunk = |((locations, positions), previous): ((&[super::Location], &mut [Vec3]), &mut [Vec3])| {
+            for ((loc, x), x_prev) in locations.iter().zip(positions).zip(previous) {
+                let tile = &tiles[loc.tile as usize];
+                let (s, l) = (loc.slot as usize, loc.lane as usize);
+                let (p, d) = (&tile.position[s], &tile.displacement[s]);
+                *x = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+                *x_prev = *x - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]);
+            }
+        };
+        if self.parallel() {
+            let parts = self.locations.par_chunks(CHUNK).zip(positions.par_chunks_mut(CHUNK));
+            parts.zip(previous.par_chunks_mut(CHUNK)).for_each(chunk);
+        } else {
+            let parts = self.locations.chunks(CHUNK).zip(positions.chunks_mut(CHUNK));
+            parts.zip(previous.chunks_mut(CHUNK)).for_each(chunk);
         }
     }
 
