@@ -26,6 +26,8 @@ pub struct RunSummary {
     pub relaxations: u32,
     /// Substeps per step.
     pub substeps: u32,
+    /// Passes per coarse level and the grid's coarse levels (0 and 0: off).
+    pub coarse: (u32, usize),
     /// The solver used.
     pub solver: &'static str,
     /// The fast solver's SIMD level (`DRAPE_SIMD`, [`crate::sim::fast::simd`]),
@@ -71,6 +73,9 @@ impl std::fmt::Display for RunSummary {
             )?;
         } else {
             writeln!(f, "relaxations          {} ({} solver)", self.relaxations, self.solver)?;
+        }
+        if self.coarse.0 > 0 {
+            writeln!(f, "coarse passes        {} per level × {} levels of the grid", self.coarse.0, self.coarse.1)?;
         }
         writeln!(f, "SIMD level           {}", self.simd)?;
         writeln!(f, "solver layout        {}", self.layout)?;
@@ -184,6 +189,7 @@ pub fn run(
         steps,
         relaxations: sim.params().relaxations,
         substeps: sim.params().substeps,
+        coarse: (sim.params().coarse_passes, sim.coarse_levels()),
         solver: sim.solver().name(),
         simd: crate::sim::fast::simd::describe(),
         layout: sim.solver_description(),

@@ -552,6 +552,12 @@ impl Simulation {
         &self.holds.list
     }
 
+    /// The grid's coarse levels the coarse phase works on (0 while
+    /// `coarse_passes` is 0).
+    pub fn coarse_levels(&self) -> usize {
+        self.hierarchy.as_ref().map_or(0, Hierarchy::level_count)
+    }
+
     /// What the inextensible projection did in the last substep (`None`
     /// while the cloth is not inextensible).
     pub fn last_projection(&self) -> Option<ProjectionReport> {
