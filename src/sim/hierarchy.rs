@@ -59,8 +59,9 @@
 //! node of its level, so a pin between nodes holds the coarse grid where
 //! it is; fixed nodes and fixed particles receive no displacement. Weights
 //! are read every substep, so a pin or a grab is a write as everywhere
-//! else. The phase runs in one thread in a fixed order: the same input
-//! gives the same bits.
+//! else. The levels' passes run in one thread in a fixed order, and the
+//! interpolation onto the particles runs by rows on the thread pool, each
+//! row alone: the same input gives the same bits on any thread count.
 
 use glam::Vec3;
 use rayon::prelude::*;
