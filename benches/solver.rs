@@ -327,6 +327,23 @@ fn pin(c: &mut Criterion) {
     group.finish();
 }
 
+/// The cost of the coarse phase as a ratio to the same step without it:
+/// the bundled `large-inextensible` scene (256 × 256 in the seed's wind at
+/// 1/1000, 8 passes, soft diagonals) with its 2 coarse passes a level and
+/// with none, fast solver, all threads.
+fn coarse(c: &mut Criterion) {
+    let mut group = c.benchmark_group("coarse");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(4));
+    let scene = drape::scene::load("large-inextensible").expect("bundled scene");
+    for (name, passes) in [("256-hanging/without", 0), ("256-hanging/with", scene.params.coarse_passes)] {
+        let params = SolverParams { coarse_passes: passes, ..scene.params.clone() };
+        let mut sim = warmed((*scene.mesh).clone(), params, SolverKind::Fast);
+        group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
+    }
+    group.finish();
+}
+
 /// Criterion with its HTML charts, which need a font registered first.
 fn config() -> Criterion {
     if let Err(e) = common::register_chart_font() {
@@ -350,6 +367,6 @@ fn setup(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = config();
-    targets = relaxations, scale, meshes, contact, self_collision, pin, air, setup
+    targets = relaxations, scale, meshes, contact, self_collision, pin, air, coarse, setup
 }
 criterion_main!(benches);

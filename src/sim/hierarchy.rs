@@ -8,7 +8,7 @@
 //! particle falls h²g ≈ 1 mm a step, 5 % of a bar) is smooth across the
 //! cloth: the error Gauss–Seidel removes slowest. On a grid coarsened k
 //! times, a bar spans 2^k fine bars, so the same pass carries the
-//! correction 2^k times as far at a 4^k-th of the cost.
+//! correction 2^k times as far over a 4^k-th of the bars.
 //!
 //! **Levels.** Level k ≥ 1 keeps the particles whose column and row are
 //! multiples of 2^k (and the last column and row), so every level's nodes

@@ -206,9 +206,12 @@ pub struct SolverParams {
     /// grid coarsened 2, 4, 8, … times, each level's bars pulling only when
     /// stretched, coarsest first, the correction interpolated down to the
     /// particles. It removes the smooth stretch that the seed's passes
-    /// carry one bar a pass, at about a third of a fine pass per coarse
-    /// pass. Pair it with soft diagonals (`shear_compliance`), which
-    /// otherwise hold the edges' stretch locally. Grid meshes only. Range `0 ..= 100`, default 0 (off, the
+    /// carry one bar a pass. On the 256 × 256 cloth (host D) a coarse pass
+    /// over every level costs about one fine pass (0.28 ms: scalar, on one
+    /// thread), plus 0.7 ms a substep to read the positions out and push
+    /// the correction back. Pair it with soft diagonals
+    /// (`shear_compliance`), which otherwise hold the edges' stretch
+    /// locally. Grid meshes only. Range `0 ..= 100`, default 0 (off, the
     /// seed's relaxation alone).
     pub coarse_passes: u32,
 }
