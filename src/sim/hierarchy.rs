@@ -102,9 +102,11 @@ struct Level {
     rest_horizontal: Vec<f32>,
     /// Rest lengths of the vertical bars, row pair by row pair.
     rest_vertical: Vec<f32>,
-    /// Node positions, row-major, and where they started this substep.
+    /// Node positions, row-major, where they started this substep, and
+    /// the difference after the level's passes.
     x: Vec<Vec3>,
     start: Vec<Vec3>,
+    displacement: Vec<Vec3>,
     /// Node inverse masses (0: fixed).
     weight: Vec<f32>,
 }
@@ -114,26 +116,27 @@ impl Level {
         self.columns.len()
     }
 
-    /// The fine particle index of node `n`.
-    fn particle(&self, shape: GridShape, n: usize) -> usize {
-        let (c, r) = (n % self.width(), n / self.width());
-        shape.index(self.columns[c], self.rows[r]) as usize
+    /// The fine particle index of every node, row-major (the nodes' order).
+    fn particles(&self, shape: GridShape) -> impl Iterator<Item = usize> + '_ {
+        self.rows.iter().flat_map(move |&r| self.columns.iter().map(move |&c| shape.index(c, r) as usize))
     }
 
-    /// The displacement of this level's nodes interpolated at the finer
-    /// node in column span `cx` and row span `ry`.
-    #[inline]
-    fn displacement_at(&self, cx: Span, ry: Span) -> Vec3 {
+    /// Writes into `out` (one value per span of `columns`) this level's
+    /// displacement interpolated bilinearly along the finer row at span
+    /// `ry`: the two node rows around it blended once into `blend`, then
+    /// each finer column between two blended nodes. The one interpolation
+    /// of the phase, for the next level's nodes and for the particles.
+    fn interpolate_row(&self, ry: Span, columns: &[Span], blend: &mut Vec<Vec3>, out: &mut [Vec3]) {
         let width = self.width();
-        let d = |c: u32, r: u32| {
-            let n = r as usize * width + c as usize;
-            self.x[n] - self.start[n]
-        };
-        let c1 = (cx.j + 1).min(width as u32 - 1);
-        let r1 = (ry.j + 1).min(self.rows.len() as u32 - 1);
-        let top = d(cx.j, ry.j).lerp(d(c1, ry.j), cx.t);
-        let bottom = d(cx.j, r1).lerp(d(c1, r1), cx.t);
-        top.lerp(bottom, ry.t)
+        let r0 = ry.j as usize;
+        let r1 = (r0 + 1).min(self.rows.len() - 1);
+        let (top, bottom) = (&self.displacement[r0 * width..][..width], &self.displacement[r1 * width..][..width]);
+        blend.clear();
+        blend.extend(top.iter().zip(bottom).map(|(a, b)| a.lerp(*b, ry.t)));
+        for (out, cx) in out.iter_mut().zip(columns) {
+            let c0 = cx.j as usize;
+            *out = blend[c0].lerp(blend[(c0 + 1).min(width - 1)], cx.t);
+        }
     }
 
     /// One Gauss–Seidel pass over the unilateral bars: the horizontal ones
@@ -222,6 +225,10 @@ pub struct Hierarchy {
     /// Positions at the start of the substep (read along with `x`, unused).
     pub x_prev: Vec<Vec3>,
     push: Vec<Vec3>,
+    /// A row of interpolated displacements and a blended node row, for the
+    /// levels below the coarsest.
+    row: Vec<Vec3>,
+    blend: Vec<Vec3>,
 }
 
 impl Hierarchy {
@@ -268,6 +275,7 @@ impl Hierarchy {
                 rest_vertical,
                 x: vec![Vec3::ZERO; count],
                 start: vec![Vec3::ZERO; count],
+                displacement: vec![Vec3::ZERO; count],
                 weight: vec![1.0; count],
             });
             stride *= 2;
@@ -286,6 +294,8 @@ impl Hierarchy {
             x: vec![Vec3::ZERO; n],
             x_prev: vec![Vec3::ZERO; n],
             push: vec![Vec3::ZERO; n],
+            row: Vec::new(),
+            blend: Vec::new(),
         })
     }
 
@@ -298,9 +308,11 @@ impl Hierarchy {
     fn set_weights(&mut self, weights: &[f32]) {
         let shape = self.shape;
         for level in &mut self.levels {
-            for n in 0..level.weight.len() {
-                level.weight[n] = weights[level.particle(shape, n)];
+            let mut node_weights = std::mem::take(&mut level.weight);
+            for (w, i) in node_weights.iter_mut().zip(level.particles(shape)) {
+                *w = weights[i];
             }
+            level.weight = node_weights;
             // A fixed particle fixes its nearest node.
             let nearest = |list: &[u32], f: u32| match list.binary_search(&f) {
                 Ok(k) => k,
@@ -337,25 +349,29 @@ impl Hierarchy {
         }
         let shape = self.shape;
         for level in &mut self.levels {
-            let mut n = 0;
-            for &r in &level.rows {
-                for &c in &level.columns {
-                    level.start[n] = self.x[shape.index(c, r) as usize];
-                    n += 1;
-                }
+            let mut start = std::mem::take(&mut level.start);
+            for (p, i) in start.iter_mut().zip(level.particles(shape)) {
+                *p = self.x[i];
             }
-            level.x.copy_from_slice(&level.start);
+            level.x.copy_from_slice(&start);
+            level.start = start;
         }
         for k in (0..self.levels.len()).rev() {
             if k + 1 < self.levels.len() {
+                // The coarser level's displacement onto this level's free
+                // nodes, which start from there.
                 let (finer, coarser) = self.levels.split_at_mut(k + 1);
                 let (level, coarser) = (&mut finer[k], &coarser[0]);
                 let width = level.width();
+                self.row.resize(width, Vec3::ZERO);
                 for (r, &ry) in coarser.finer_rows.iter().enumerate() {
-                    for (c, &cx) in coarser.finer_columns.iter().enumerate() {
-                        let n = r * width + c;
-                        if level.weight[n] > 0.0 {
-                            level.x[n] = level.start[n] + coarser.displacement_at(cx, ry);
+                    coarser.interpolate_row(ry, &coarser.finer_columns, &mut self.blend, &mut self.row);
+                    let nodes = r * width..(r + 1) * width;
+                    let (x, start, weight) =
+                        (&mut level.x[nodes.clone()], &level.start[nodes.clone()], &level.weight[nodes]);
+                    for (((x, start), &w), d) in x.iter_mut().zip(start).zip(weight).zip(&self.row) {
+                        if w > 0.0 {
+                            *x = *start + *d;
                         }
                     }
                 }
@@ -364,32 +380,30 @@ impl Hierarchy {
             for _ in 0..step.passes {
                 level.pass();
             }
+            for ((d, x), start) in level.displacement.iter_mut().zip(&level.x).zip(&level.start) {
+                *d = *x - *start;
+            }
         }
-        // Level 1's displacement interpolated down to every particle: per
-        // fine row, level 1's two rows around it blended once, then
-        // along the row (rows in parallel on large cloths; each row is
-        // computed alone, so the bits do not depend on the threads).
+        // Level 1's displacement onto every particle, divided by its weight
+        // (rows in parallel on large cloths, each with its own blend row:
+        // each row is computed alone, so the bits do not depend on the
+        // threads).
         let level = &self.levels[0];
-        let displacement: Vec<Vec3> = level.x.iter().zip(&level.start).map(|(x, s)| *x - *s).collect();
-        let (width, last_row) = (level.width(), level.rows.len() - 1);
         let fine_columns = &self.fine_columns;
-        let fill_row = |((push, weights), ry): ((&mut [Vec3], &[f32]), &Span)| {
-            let (r0, r1) = (ry.j as usize, (ry.j as usize + 1).min(last_row));
-            let (top, bottom) = (&displacement[r0 * width..][..width], &displacement[r1 * width..][..width]);
-            let blend: Vec<Vec3> = top.iter().zip(bottom).map(|(a, b)| a.lerp(*b, ry.t)).collect();
-            for ((push, &w), cx) in push.iter_mut().zip(weights).zip(fine_columns) {
-                let c0 = cx.j as usize;
-                let c1 = (c0 + 1).min(width - 1);
-                *push = if w > 0.0 { blend[c0].lerp(blend[c1], cx.t) / w } else { Vec3::ZERO };
+        let fill_row = |blend: &mut Vec<Vec3>, ((push, weights), &ry): ((&mut [Vec3], &[f32]), &Span)| {
+            level.interpolate_row(ry, fine_columns, blend, push);
+            for (push, &w) in push.iter_mut().zip(weights) {
+                *push = if w > 0.0 { *push / w } else { Vec3::ZERO };
             }
         };
         let columns = shape.columns as usize;
         if step.parallel && self.push.len() >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1 {
             let rows = self.push.par_chunks_mut(columns).zip(step.weights.par_chunks(columns));
-            rows.zip(self.fine_rows.par_iter()).for_each(fill_row);
+            rows.zip(self.fine_rows.par_iter()).for_each_init(Vec::new, fill_row);
         } else {
             let rows = self.push.chunks_mut(columns).zip(step.weights.chunks(columns));
-            rows.zip(self.fine_rows.iter()).for_each(fill_row);
+            let blend = &mut self.blend;
+            rows.zip(self.fine_rows.iter()).for_each(|row| fill_row(blend, row));
         }
         &self.push
     }
