@@ -3,19 +3,11 @@
 //! length, and shown to need the phase; grids only; pins and unequal
 //! masses; the same bits on any thread count.
 
-use drape::sim::{Grid, Pins, SimError, Simulation, SolverKind, SolverParams, StrainHistory, Wind};
+use drape::sim::{Grid, Pins, SimError, Simulation, SolverKind, SolverParams, Wind};
 use glam::Vec3;
 
-/// The edges' max strain over `steps` steps after `warmup`: (typical, worst).
-fn edge_strain_run(sim: &mut Simulation, warmup: u64, steps: u64) -> (f64, f32) {
-    sim.advance(warmup).unwrap();
-    let mut history = StrainHistory::default();
-    for _ in 0..steps {
-        sim.step().unwrap();
-        history.record(sim.edge_strain());
-    }
-    (history.mean_max(), history.worst_max)
-}
+mod strain;
+use strain::edge_strain_run;
 
 #[test]
 fn the_large_cloth_keeps_its_edges_within_two_percent_and_needs_the_coarse_passes_for_it() {

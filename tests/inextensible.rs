@@ -3,19 +3,11 @@
 //! degenerate input, pins that change, and a grab that does not stretch.
 
 use drape::sim::exact::{discrete_catenary, pendulum_period};
-use drape::sim::{ClothMesh, Simulation, SolverKind, SolverParams, StrainHistory};
+use drape::sim::{ClothMesh, Simulation, SolverKind, SolverParams};
 use glam::{DVec2, Vec3};
 
-/// The edges' max strain over `steps` steps after `warmup`: (typical, worst).
-fn edge_strain_run(sim: &mut Simulation, warmup: u64, steps: u64) -> (f64, f32) {
-    sim.advance(warmup).unwrap();
-    let mut history = StrainHistory::default();
-    for _ in 0..steps {
-        sim.step().unwrap();
-        history.record(sim.edge_strain());
-    }
-    (history.mean_max(), history.worst_max)
-}
+mod strain;
+use strain::edge_strain_run;
 
 #[test]
 fn the_seed_scene_inextensible_stays_within_one_percent_and_the_seed_method_does_not() {
