@@ -70,6 +70,25 @@ impl Real for f32 {
     }
 }
 
+/// `F32x8([e(0), …, e(7)])` for an expression `e` of the lane `l`, written
+/// out lane by lane: `std::array::from_fn` in a large kernel is not always
+/// inlined, and a call per lane undoes the vectorisation.
+macro_rules! per_lane {
+    (|$l:ident| $e:expr) => {
+        $crate::sim::fast::kernel::F32x8([
+            { let $l = 0usize; $e },
+            { let $l = 1usize; $e },
+            { let $l = 2usize; $e },
+            { let $l = 3usize; $e },
+            { let $l = 4usize; $e },
+            { let $l = 5usize; $e },
+            { let $l = 6usize; $e },
+            { let $l = 7usize; $e },
+        ])
+    };
+}
+pub(crate) use per_lane;
+
 /// Eight `f32` lanes; every operation is a loop over the lanes that the
 /// compiler turns into one vector instruction.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -129,6 +148,11 @@ impl F32x8 {
     #[inline(always)]
     pub(crate) fn rotate_up(self) -> Self {
         F32x8(std::array::from_fn(|l| self.0[(l + LANES - 1) % LANES]))
+    }
+    /// `self` with the sign of `sign`, lane by lane (`f32::copysign`).
+    #[inline(always)]
+    pub(crate) fn copysign(self, sign: Self) -> Self {
+        F32x8(std::array::from_fn(|l| self.0[l].copysign(sign.0[l])))
     }
     /// The largest lane.
     #[inline(always)]

@@ -51,7 +51,7 @@
 
 mod generic;
 mod grid;
-mod kernel;
+pub(crate) mod kernel;
 pub mod simd;
 
 use glam::Vec3;

@@ -28,18 +28,14 @@
 //! triangle's share of the particles' masses). Neither cap acts at the
 //! terminal speed of a falling sheet or on a flag at any ordinary h.
 //!
-//! **Turbulence.** The air's velocity is the mean wind V plus gusts:
+//! **Turbulence** ([`noise`]): the air's velocity is the mean wind V plus
+//! gusts of smooth value noise carried along by the wind.
 //!
-//! ```text
-//! v_air(x, t) = V + g_t |V| N((x − V t)/ℓ + c t/τ)
-//! ```
-//!
-//! N is smooth value noise (a hashed lattice, quintic interpolation, one
-//! octave; each component scaled to unit RMS), deterministic (the same
-//! scene gives the same run), carried along by the mean wind (Taylor's
-//! frozen turbulence: a gust travels down a flag at the wind's speed, so
-//! the flag ripples along its length) and changing on the time scale τ on
-//! its own (the drift c, a fixed unit vector); ℓ = τ = `gust_scale`.
+//! **How it runs.** Three loops a substep, each in chunks on the thread pool
+//! for large cloths: the air's velocity relative to each particle; the
+//! force on each triangle, eight triangles at a time in SIMD lanes
+//! ([`force`]: the same bits as one at a time); and each particle's share,
+//! gathered from its incident triangles.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -48,13 +44,11 @@ use super::mesh::ClothMesh;
 use super::self_contact::PARALLEL_PARTICLES;
 use super::units;
 use super::wind::Air;
+pub use noise::air_velocity;
+use noise::{Cell, Field};
 
-/// RMS of one component of the noise before scaling, measured
-/// by `noise_has_unit_rms_per_component` over 200 000 samples.
-const NOISE_RMS: f32 = 0.401;
-/// The pattern's own drift through the noise, per τ (a fixed unit vector,
-/// not along any lattice axis).
-const DRIFT: Vec3 = Vec3::new(0.267, 0.534, 0.802);
+mod force;
+mod noise;
 
 /// What one substep's aerodynamics needs.
 #[derive(Clone, Copy, Debug)]
@@ -166,16 +160,20 @@ impl Aerodynamics {
             }
         }
         {
+            // A third of each triangle's force, eight triangles at a time
+            // (`force`), in chunks of triangles on the pool.
+            const TRIANGLES: usize = 4096;
             let (x, relative) = (&self.x, &self.relative);
-            let per_triangle = |(f, (t, &m)): (&mut Vec3, (&[u32; 3], &f32))| {
-                *f = triangle_force(&air, step.dt, m, t.map(|i| i as usize), x, relative) / 3.0;
+            type Chunk<'a> = (&'a mut [Vec3], (&'a [[u32; 3]], &'a [f32]));
+            let chunk = |(out, (triangles, masses)): Chunk| {
+                force::third_forces(&air, step.dt, x, relative, triangles, masses, out);
             };
-            let triangles = self.triangles.iter().zip(self.triangle_mass.iter());
+            let triangles = self.triangles.chunks(TRIANGLES).zip(self.triangle_mass.chunks(TRIANGLES));
             if parallel {
-                let triangles = self.triangles.par_iter().zip(self.triangle_mass.par_iter());
-                self.third_force.par_iter_mut().zip(triangles).for_each(per_triangle);
+                let triangles = self.triangles.par_chunks(TRIANGLES).zip(self.triangle_mass.par_chunks(TRIANGLES));
+                self.third_force.par_chunks_mut(TRIANGLES).zip(triangles).for_each(chunk);
             } else {
-                self.third_force.iter_mut().zip(triangles).for_each(per_triangle);
+                self.third_force.chunks_mut(TRIANGLES).zip(triangles).for_each(chunk);
             }
         }
         {
@@ -195,149 +193,9 @@ impl Aerodynamics {
     }
 }
 
-/// v_air(x, t), m/s (module docs).
-pub fn air_velocity(air: &Air, x: Vec3, time: f32) -> Vec3 {
-    Field::new(air, time).at(x, &mut Cell::default())
-}
-
-/// v_air(·, t) at one time: what does not depend on x computed once per
-/// substep, not per particle (the same operations in the same order, so
-/// the same bits).
-#[derive(Clone, Copy, Debug)]
-struct Field {
-    /// V, m/s.
-    mean: Vec3,
-    /// V t, metres.
-    shift: Vec3,
-    /// ℓ, metres.
-    scale: f32,
-    /// c t/τ: the pattern's own drift.
-    drift: Vec3,
-    /// g_t |V| / RMS of the noise, m/s.
-    amplitude: f32,
-    /// No gusts (or no wind): the air is V everywhere.
-    steady: bool,
-}
-
-impl Field {
-    fn new(air: &Air, time: f32) -> Self {
-        let speed = air.velocity.length();
-        let scale = air.gust_scale;
-        Self {
-            mean: air.velocity,
-            shift: air.velocity * time,
-            scale,
-            drift: DRIFT * (time / scale),
-            amplitude: air.gusts * speed / NOISE_RMS,
-            steady: air.gusts == 0.0 || speed == 0.0,
-        }
-    }
-
-    /// v_air(x, t), reusing the lattice values of the cell last visited.
-    #[inline]
-    fn at(&self, x: Vec3, cell: &mut Cell) -> Vec3 {
-        if self.steady {
-            return self.mean;
-        }
-        let q = (x - self.shift) / self.scale + self.drift;
-        self.mean + value_noise(q, cell) * self.amplitude
-    }
-}
-
-/// ⌊v⌋, exactly as `f32::floor` (which the x86-64 baseline build calls
-/// out of line): through the integer conversion while |v| < 2²³, above
-/// which every f32 is an integer already.
-#[inline]
-fn floor(v: f32) -> f32 {
-    if v.abs() < 8_388_608.0 {
-        let t = v as i32 as f32;
-        if t > v { t - 1.0 } else { t }
-    } else {
-        v
-    }
-}
-
-/// Drag plus lift on the triangle with corners `t` (module docs), capped so
-/// that it cannot reverse the relative motion in one substep.
-fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[Vec3], relative: &[Vec3]) -> Vec3 {
-    let [a, b, c] = t;
-    let normal2 = (x[b] - x[a]).cross(x[c] - x[a]);
-    let twice_area = normal2.length();
-    if twice_area.is_nan() || twice_area <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let n = normal2 / twice_area;
-    let area = 0.5 * twice_area;
-    let u = (relative[a] + relative[b] + relative[c]) / 3.0;
-    let un = u.dot(n);
-    let q = 0.5 * air.density * area;
-    let drag_cap = mass * un.abs() / dt;
-    let drag = n * (un.signum() * (q * air.drag * un * un).min(drag_cap));
-    let speed2 = u.length_squared();
-    if air.lift == 0.0 || speed2 == 0.0 {
-        return drag;
-    }
-    // ½ρC_l A |u|² cos φ (n − cos φ û) = ½ρC_l A (|u| u·n n − (u·n)² u/|u|):
-    // perpendicular to u, of size ½ρC_l A |u|² |cos φ| sin φ.
-    let speed = speed2.sqrt();
-    let lift = (n * (speed * un) - u * (un * un / speed)) * (q * air.lift);
-    let cap = mass * speed / dt;
-    let size2 = lift.length_squared();
-    if size2 > cap * cap { drag + lift * (cap / size2.sqrt()) } else { drag + lift }
-}
-
-/// The lattice values at the eight corners of the noise cell last
-/// visited: gusts are far larger than the particle spacing, so neighbouring
-/// particles mostly share a cell and its hashes are computed once.
-#[derive(Clone, Copy, Debug, Default)]
-struct Cell {
-    key: Option<[i32; 3]>,
-    corners: [Vec3; 8],
-}
-
-/// Value noise, each component in ±1: hashed lattice values in [−1, 1]³,
-/// quintic interpolation (C² across cells, so the air's velocity and its
-/// gradient are smooth). One octave: a second at half the size costs as
-/// much again, and the flag's own flutter gives the finer detail.
-fn value_noise(q: Vec3, cell: &mut Cell) -> Vec3 {
-    let floor = Vec3::new(floor(q.x), floor(q.y), floor(q.z));
-    let f = q - floor;
-    let fade = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
-    let key = [floor.x as i32, floor.y as i32, floor.z as i32];
-    if cell.key != Some(key) {
-        let [ix, iy, iz] = key;
-        for (k, corner) in cell.corners.iter_mut().enumerate() {
-            let k = k as i32;
-            *corner = lattice(ix + (k & 1), iy + ((k >> 1) & 1), iz + (k >> 2));
-        }
-        cell.key = Some(key);
-    }
-    let c = &cell.corners;
-    let lerp = |a: Vec3, b: Vec3, t: f32| a + (b - a) * t;
-    let x00 = lerp(c[0], c[1], fade.x);
-    let x10 = lerp(c[2], c[3], fade.x);
-    let x01 = lerp(c[4], c[5], fade.x);
-    let x11 = lerp(c[6], c[7], fade.x);
-    lerp(lerp(x00, x10, fade.y), lerp(x01, x11, fade.y), fade.z)
-}
-
-/// Three values in [−1, 1] from a lattice point (a 32-bit integer hash,
-/// the finaliser of MurmurHash3, ten bits per value).
-fn lattice(x: i32, y: i32, z: i32) -> Vec3 {
-    let mut h = (x as u32).wrapping_mul(0x8da6_b343)
-        ^ (y as u32).wrapping_mul(0xd816_3841)
-        ^ (z as u32).wrapping_mul(0xcb1a_b31f);
-    h ^= h >> 16;
-    h = h.wrapping_mul(0x85eb_ca6b);
-    h ^= h >> 13;
-    h = h.wrapping_mul(0xc2b2_ae35);
-    h ^= h >> 16;
-    let unit = |bits: u32| (bits & 1023) as f32 / 511.5 - 1.0;
-    Vec3::new(unit(h), unit(h >> 10), unit(h >> 20))
-}
-
 #[cfg(test)]
 mod tests {
+    use super::force::triangle_force;
     use super::*;
 
     fn air() -> Air {
@@ -394,58 +252,5 @@ mod tests {
         let v_air = vec![a.velocity; 3];
         let f = triangle_force(&a, 0.01, 0.001, [0, 1, 2], &x, &v_air);
         assert!((f.x * 0.01 / 0.001 - 8.0).abs() < 1e-3, "{f}");
-    }
-
-    #[test]
-    fn the_floor_is_f32s_floor() {
-        for v in
-            [0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999_999_8, -2.999_999_8, 8_388_607.5, -8_388_607.5, 1e9, -1e9, 3e38]
-        {
-            assert_eq!(floor(v), v.floor(), "{v}");
-        }
-        assert!(floor(f32::NAN).is_nan());
-        assert_eq!(floor(f32::INFINITY), f32::INFINITY);
-        assert_eq!(floor(f32::NEG_INFINITY), f32::NEG_INFINITY);
-    }
-
-    #[test]
-    fn noise_has_unit_rms_per_component_and_is_smooth_and_deterministic() {
-        let mut sum = Vec3::ZERO;
-        let count = 200_000;
-        for k in 0..count {
-            let q = Vec3::new(k as f32 * 0.173, (k % 997) as f32 * 0.311, (k % 313) as f32 * 0.129);
-            let v = value_noise(q, &mut Cell::default()) / NOISE_RMS;
-            sum += v * v;
-        }
-        let rms = (sum / count as f32).map(f32::sqrt);
-        assert!((rms - Vec3::ONE).abs().max_element() < 0.08, "{rms}");
-        // Smooth: a step of 1e-3 cells changes it by far less than its size.
-        let q = Vec3::new(3.3, -1.7, 8.2);
-        let noise = |q: Vec3| value_noise(q, &mut Cell::default());
-        assert!((noise(q) - noise(q + Vec3::splat(1e-3))).length() < 0.02);
-        assert_eq!(noise(q), noise(q));
-        // The cell cache gives the same values as a fresh evaluation.
-        let mut cell = Cell::default();
-        for k in 0..100 {
-            let p = q + Vec3::new(k as f32 * 0.031, 0.0, k as f32 * 0.017);
-            assert_eq!(value_noise(p, &mut cell), noise(p));
-        }
-    }
-
-    #[test]
-    fn gusts_vary_the_air_along_the_wind_and_average_to_the_mean() {
-        let a = Air { gusts: 0.3, gust_scale: 1.5, ..air() };
-        // 2000 points 1.5 m apart on a plane: about 2000 independent gusts.
-        let samples: Vec<Vec3> = (0..2000)
-            .map(|k| air_velocity(&a, Vec3::new((k % 50) as f32 * 1.5, 0.3, (k / 50) as f32 * 1.5), 0.0))
-            .collect();
-        let mean = samples.iter().sum::<Vec3>() / samples.len() as f32;
-        let spread = (samples.iter().map(|v| (*v - mean).length_squared()).sum::<f32>() / 2000.0).sqrt();
-        // 3 components of RMS 0.3 · 8 = 2.4 m/s: about 4.2 m/s together; the
-        // mean of ~2000 gusts is within 4.2/√2000 ≈ 0.1 m/s of V, say 0.4.
-        assert!((mean - a.velocity).length() < 0.4, "{mean}");
-        assert!((2.5..6.0).contains(&spread), "{spread}");
-        // Steady air is the mean everywhere.
-        assert_eq!(air_velocity(&air(), Vec3::new(1.0, 2.0, 3.0), 4.0), air().velocity);
     }
 }
