@@ -232,10 +232,15 @@ fn collide_tile(tile: &mut Tile, contact: &ContactStep) {
         return;
     }
     for (((x, d), q), w) in position.iter_mut().zip(displacement.iter()).zip(predicted.iter()).zip(weight.iter()) {
+        // The lanes a collider may move: most slots have none.
+        let x0: Slot = [q[0] - d[0], q[1] - d[1], q[2] - d[2]];
+        let touching = near.iter().fold(0u8, |m, &k| m | contact.may_touch_lanes(k, &x0, x));
+        if touching == 0 {
+            continue;
+        }
         for l in 0..LANES {
-            if w.0[l] > 0.0 {
-                let x0 = lane(q, l) - lane(d, l);
-                let out = contact.resolve(&near, x0, lane(x, l));
+            if touching & (1 << l) != 0 && w.0[l] > 0.0 {
+                let out = contact.resolve(&near, lane(&x0, l), lane(x, l));
                 for k in 0..3 {
                     x[k].0[l] = out[k];
                 }
