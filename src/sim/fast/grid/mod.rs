@@ -35,8 +35,11 @@
 //! whole cloth 0.040.
 //!
 //! **Tiles and threads.** Bars between a tile's lane 7 and the next tile's
-//! lane 0 ("seams") are projected one by one by the tile on their left, after
-//! its own bars. Even tiles sweep first, then odd ones, so no two tiles being
+//! lane 0 ("seams") are projected by the tile on their left, after its own
+//! bars, eight at a time in lanes: rows two apart share no seam particle, so
+//! the seam bars are grouped even rows first, then odd ones ([`seam_groups`];
+//! one at a time they cost 14 % of a 256 × 256 step, as a chain of scalar
+//! projections each waiting for the last). Even tiles sweep first, then odd ones, so no two tiles being
 //! swept at once share a particle. Tiles are sized from the grid alone, never
 //! from the thread count, so one thread or many give the same bits; grids of
 //! at least [`PARALLEL_PARTICLES`] sweep their tiles on the rayon pool.
@@ -176,9 +179,62 @@ struct Tile {
     /// (+∞ without one); empty when tethers are off.
     tether_anchor: Vec<Slot>,
     tether_length: Vec<F32x8>,
-    /// The bars from this tile's lane 7 to the next tile's lane 0, and their μ.
+    /// The bars from this tile's lane 7 to the next tile's lane 0, and their μ,
+    /// in groups of at most eight that share no particle ([`seam_groups`]).
     seams: Vec<SeamBar>,
     seam_multipliers: Vec<f32>,
+    /// Group g is `seams[seam_ends[g − 1]..seam_ends[g]]` (from 0 for g = 0).
+    seam_ends: Vec<u32>,
+}
+
+/// A tile's seam bars (in row order, as built) in groups of at most eight
+/// that share no particle, and where each group ends.
+///
+/// A seam bar starting in row r touches rows r and r + 1 only (it joins
+/// columns across a tile's edge: H, BH, D or A, never V or BV), so bars of
+/// rows two apart never share a particle. The rows are taken even ones
+/// first, then odd ones, eight rows at a time, and the k-th seam bar of
+/// each of those rows forms a group: eight independent projections, one
+/// operation in lanes. Within a parity the groups go k by k, each k over
+/// every eight rows: two groups in a row then share no particle either (the
+/// eights of one parity touch disjoint rows), so one group's projection
+/// need not wait for the last one's. The groups run in this order one after
+/// the other, a Gauss–Seidel sweep over the seam bars like any other. `block`: columns
+/// per lane (slot = row · block + column in the block).
+fn seam_groups(seams: &[SeamBar], block: u32) -> (Vec<SeamBar>, Vec<u32>) {
+    let row = |s: &SeamBar| s.a.slot.min(s.b.slot) / block;
+    let mut rows: Vec<Vec<SeamBar>> = Vec::new();
+    for s in seams {
+        match rows.last_mut() {
+            Some(last) if row(&last[0]) == row(s) => last.push(*s),
+            _ => rows.push(vec![*s]),
+        }
+    }
+    // Within a row, bars are told apart by kind, rest length and how many
+    // of the same came before: the k-th bend bar of 2 spacings, say. The
+    // last row lacks some (no diagonal leaves it); every row has its bars in
+    // the order of the fullest row.
+    let key = |row: &[SeamBar], i: usize| {
+        let same = |s: &SeamBar| (s.kind, s.rest.to_bits()) == (row[i].kind, row[i].rest.to_bits());
+        (row[i].kind, row[i].rest.to_bits(), row[..i].iter().filter(|s| same(s)).count())
+    };
+    let keys = |row: &[SeamBar]| (0..row.len()).map(|i| key(row, i)).collect::<Vec<_>>();
+    let fullest = rows.iter().max_by_key(|r| r.len()).map(|r| keys(r)).unwrap_or_default();
+    let (mut out, mut ends) = (Vec::with_capacity(seams.len()), Vec::new());
+    for parity in 0..2 {
+        let chosen: Vec<&Vec<SeamBar>> = rows.iter().skip(parity).step_by(2).collect();
+        for k in &fullest {
+            for chunk in chosen.chunks(LANES) {
+                let before = out.len();
+                out.extend(chunk.iter().filter_map(|r| keys(r).iter().position(|x| x == k).map(|i| r[i])));
+                if out.len() > before {
+                    ends.push(out.len() as u32);
+                }
+            }
+        }
+    }
+    debug_assert_eq!(out.len(), seams.len(), "every seam bar in one group");
+    (out, ends)
 }
 
 /// How scene cells map to internal ones.
@@ -370,6 +426,8 @@ impl GridLayout {
         }
         layout.row_starts.push(layout.ops.len() as u32);
         for tile in &mut layout.tiles {
+            let (seams, ends) = seam_groups(&tile.seams, block as u32);
+            (tile.seams, tile.seam_ends) = (seams, ends);
             tile.seam_multipliers = vec![0.0; tile.seams.len()];
         }
         let mut presence = vec![vec![F32x8::splat(0.0); slots]; tile_count];

@@ -54,27 +54,60 @@ pub(super) fn sweep_tiles(all: &mut [Tile], sweep: &Sweep, parallel: bool) -> f3
     worst
 }
 
-/// Projects the seam bars between tile `a` and the next, `b`, in order.
-fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
+dispatch! {
+    /// Projects the seam bars between tile `a` and the next, `b`: group by
+    /// group, the up to eight bars of a group (no shared particle, one kind
+    /// and rest length: [`super::seam_groups`]) in the lanes of one
+    /// operation.
+    fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32
+        = relax_boundary_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn relax_boundary_body(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
+    if sweep.compliant { relax_seams::<true>(a, b, sweep) } else { relax_seams::<false>(a, b, sweep) }
+}
+
+#[inline(always)]
+fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
     let mut worst = f32::NEG_INFINITY;
-    let Tile { position, weight, seams, seam_multipliers, .. } = a;
-    for (seam, mu) in seams.iter().zip(seam_multipliers) {
-        let (sa, la, sb, lb) = (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
-        let kind = seam.kind as usize;
-        let mut pa = position[sa].map(|c| c.0[la]);
-        let mut pb = b.position[sb].map(|c| c.0[lb]);
-        let (wa, wb) = (weight[sa].0[la], b.weight[sb].0[lb]);
-        let (beta, omega) = (sweep.betas[kind], sweep.omega);
-        let v = if sweep.compliant {
-            relax_pair::<f32, true>(&mut pa, wa, &mut pb, wb, seam.rest, mu, beta, omega)
-        } else {
-            relax_pair::<f32, false>(&mut pa, wa, &mut pb, wb, seam.rest, mu, 0.0, omega)
-        };
-        for k in 0..3 {
-            position[sa][k].0[la] = pa[k];
-            b.position[sb][k].0[lb] = pb[k];
+    let mut start = 0;
+    for &end in &a.seam_ends {
+        let end = end as usize;
+        let group = &a.seams[start..end];
+        // Lanes past the group's end stay at 0 with weight 0 at both ends:
+        // they move nothing.
+        let (mut pa, mut pb) = ([F32x8::splat(0.0); 3], [F32x8::splat(0.0); 3]);
+        let (mut wa, mut wb, mut mu) = (F32x8::splat(0.0), F32x8::splat(0.0), F32x8::splat(0.0));
+        for (l, seam) in group.iter().enumerate() {
+            let (sa, la, sb, lb) =
+                (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
+            for k in 0..3 {
+                pa[k].0[l] = a.position[sa][k].0[la];
+                pb[k].0[l] = b.position[sb][k].0[lb];
+            }
+            wa.0[l] = a.weight[sa].0[la];
+            wb.0[l] = b.weight[sb].0[lb];
+            if XPBD {
+                mu.0[l] = a.seam_multipliers[start + l];
+            }
         }
-        worst = worst.max(excess(v, wa, wb, sweep.tolerance * seam.rest));
+        let (rest, kind) = (group[0].rest, group[0].kind as usize);
+        let beta = if XPBD { sweep.betas[kind] } else { 0.0 };
+        let v = relax_lanes::<XPBD>(&mut pa, wa, &mut pb, wb, rest, &mut mu, beta, sweep.omega);
+        for (l, seam) in group.iter().enumerate() {
+            let (sa, la, sb, lb) =
+                (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
+            for k in 0..3 {
+                a.position[sa][k].0[la] = pa[k].0[l];
+                b.position[sb][k].0[lb] = pb[k].0[l];
+            }
+            if XPBD {
+                a.seam_multipliers[start + l] = mu.0[l];
+            }
+            worst = worst.max(excess(v.0[l], wa.0[l], wb.0[l], sweep.tolerance * rest));
+        }
+        start = end;
     }
     worst
 }

@@ -181,3 +181,46 @@ fn orientation_puts_the_pins_where_the_sweep_starts() {
     assert!(o(6, 30, Pins::LeftColumn).0);
     assert!(Orientation::choose(GridShape { columns: 16, rows: 16 }, &[false; 256]).is_none());
 }
+
+#[test]
+fn seam_groups_are_independent_and_keep_each_rows_order() {
+    // 300 columns: five tiles, four seams, with rows of five seam bars
+    // (H, D, A and two BH) and a last row of three (no diagonal leaves it).
+    let mesh = Grid { columns: 300, rows: 64, spacing: 0.1, pins: Pins::TopRow, ..Grid::default() }.build().unwrap();
+    let layout = GridLayout::new(&mesh, mesh.positions(), mesh.positions(), &weights(&mesh), None).unwrap();
+    let at = layout.scene_index();
+    let mut seams_seen = 0;
+    for tile in &layout.tiles[..layout.tiles.len() - 1] {
+        assert_eq!(*tile.seam_ends.last().unwrap() as usize, tile.seams.len());
+        let mut start = 0;
+        for &end in &tile.seam_ends {
+            let group = &tile.seams[start..end as usize];
+            assert!((1..=LANES).contains(&group.len()));
+            // One kind and one rest length, and no particle twice.
+            assert!(group.iter().all(|s| s.kind == group[0].kind && s.rest == group[0].rest));
+            let mut ends: Vec<u32> = group
+                .iter()
+                .flat_map(|s| [at[&(s.a.tile, s.a.slot, s.a.lane)], at[&(s.b.tile, s.b.slot, s.b.lane)]])
+                .collect();
+            ends.sort_unstable();
+            ends.dedup();
+            assert_eq!(ends.len(), 2 * group.len(), "a group shares a particle");
+            start = end as usize;
+        }
+        // Each row's bars come in the order they were built (H, D, A, BH, BH).
+        let row = |s: &SeamBar| s.a.slot.min(s.b.slot) / layout.block as u32;
+        for r in 0..64 {
+            let kinds: Vec<(u8, u32)> =
+                tile.seams.iter().filter(|s| row(s) == r).map(|s| (s.kind, s.rest.to_bits())).collect();
+            let expected = if r == 63 { 3 } else { 5 };
+            assert_eq!(kinds.len(), expected, "row {r}");
+            assert_eq!(kinds[0].0, crate::sim::BarKind::Structural.index() as u8, "row {r} starts with H");
+            assert!(kinds[kinds.len() - 2..].iter().all(|k| k.0 == crate::sim::BarKind::Bend.index() as u8));
+        }
+        seams_seen += tile.seams.len();
+        // Eight rows a group: 318 seam bars in 40 groups (32 even and 32
+        // odd rows, four eights each, five bars a row).
+        assert_eq!(tile.seam_ends.len(), 40, "{} groups", tile.seam_ends.len());
+    }
+    assert_eq!(seams_seen, 4 * (63 * 5 + 3));
+}
