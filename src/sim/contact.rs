@@ -37,7 +37,7 @@
 //! grown by r) is kept; a particle, or a solver's tile of particles, whose
 //! box of start and end positions misses it skips that collider. A plane
 //! is skipped when the whole box is farther than r on its free side. The
-//! grid solver tests eight particles at once ([`ContactStep::may_touch_lanes`]),
+//! grid solver tests eight particles at once (`ContactStep::may_touch_lanes`),
 //! and for a sphere that stands still also clears the particles in its box
 //! whose path stays clear of the ball itself (a draped cloth hangs around
 //! the ball inside its box).

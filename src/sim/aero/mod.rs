@@ -28,13 +28,13 @@
 //! triangle's share of the particles' masses). Neither cap acts at the
 //! terminal speed of a falling sheet or on a flag at any ordinary h.
 //!
-//! **Turbulence** ([`noise`]): the air's velocity is the mean wind V plus
+//! **Turbulence** (`noise.rs`): the air's velocity is the mean wind V plus
 //! gusts of smooth value noise carried along by the wind.
 //!
 //! **How it runs.** Three loops a substep, each in chunks on the thread pool
 //! for large cloths: the air's velocity relative to each particle; the
 //! force on each triangle, eight triangles at a time in SIMD lanes
-//! ([`force`]: the same bits as one at a time); and each particle's share,
+//! (`force.rs`: the same bits as one at a time); and each particle's share,
 //! gathered from its incident triangles.
 
 use glam::Vec3;
