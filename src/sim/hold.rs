@@ -20,8 +20,34 @@
 //! pins let it, and the held particle lags behind the hand rather than
 //! stretching the cloth. A fixed particle (a pin) cannot be held this way;
 //! it is moved by hand ([`super::Simulation::move_particle`]).
+//!
+//! **The hand's reach.** Passes carry a pull one bar a pass, so a hand that
+//! moves a bar's length a substep outruns them, however the pull is
+//! bounded. So a hold also ties every particle to the held one, as tethers
+//! tie a cloth to its pins (Kim, Chentanez & Müller 2012): after the
+//! relaxation passes, a free particle j farther from the held particle h
+//! than the rest path between them along the bars is put back at that
+//! distance, toward h; and the pull itself keeps h within the same reach of
+//! every pin, so the hand lifts the cloth it cannot stretch instead of
+//! tearing it from its pins:
+//!
+//! ```text
+//! pull:   x_h ← x_h + Δ (as above), then for every pin p, a few sweeps:
+//!         |x_h − x_p| > L_hp  →  x_h ← x_p + (x_h − x_p) · L_hp / |x_h − x_p|
+//! reach:  d = x_j − x_h,   |d| > L_hj  →  x_j ← x_h + d · L_hj / |d|
+//! ```
+//!
+//! In the rest state every particle satisfies both (a straight line is never
+//! longer than a path along bars). L_h· comes from Dijkstra's algorithm
+//! when the hold starts ([`super::tether::Tethers::new`] from the held
+//! particle). A 64 × 64 cloth's corner pulled at 10 m/s with 8 passes:
+//! 169 % worst edge strain without the reach, 56 % with it (72 % and 44 %
+//! with 2 coarse passes).
 
 use glam::Vec3;
+
+/// Sweeps over the pins that keep a held particle within their reach.
+const PIN_SWEEPS: usize = 4;
 
 /// A particle pulled toward a target.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +66,10 @@ pub struct Hold {
 pub struct Holds {
     /// The holds, at most one per particle.
     pub list: Vec<Hold>,
+    /// The reach of the holds that have one: the held particle and L_hj,
+    /// the rest path length along the bars from it to each particle j
+    /// (metres; infinite where no path leads).
+    reach: Vec<(usize, Vec<f32>)>,
     /// Positions after integration, scene order (the solver writes them).
     pub x: Vec<Vec3>,
     /// Positions at the start of the substep (read along with `x`, unused).
@@ -50,7 +80,45 @@ pub struct Holds {
 impl Holds {
     /// No holds, with buffers for `particles` particles.
     pub fn new(particles: usize) -> Self {
-        Self { list: Vec::new(), x: vec![Vec3::ZERO; particles], x_prev: vec![Vec3::ZERO; particles], push: Vec::new() }
+        Self { x: vec![Vec3::ZERO; particles], x_prev: vec![Vec3::ZERO; particles], ..Self::default() }
+    }
+
+    /// Gives the hold of `particle` a reach (the rest path lengths from it
+    /// to every particle), or takes it away (`None`).
+    pub fn set_reach(&mut self, particle: usize, lengths: Option<Vec<f32>>) {
+        self.reach.retain(|(p, _)| *p != particle);
+        if let Some(lengths) = lengths {
+            self.reach.push((particle, lengths));
+        }
+    }
+
+    /// Whether any hold has a reach.
+    pub fn has_reach(&self) -> bool {
+        !self.reach.is_empty()
+    }
+
+    /// The hand's tethers (module docs) on [`Self::x`], each particle's
+    /// move divided by its weight (what [`super::Solver::push`] multiplies
+    /// back); zero for particles within reach and for weight 0.
+    pub fn tether(&mut self, weights: &[f32]) -> &[Vec3] {
+        self.push.clear();
+        self.push.resize(self.x.len(), Vec3::ZERO);
+        for (held, lengths) in &self.reach {
+            let anchor = self.x[*held];
+            for (j, ((x, push), (&reach, &w))) in
+                self.x.iter_mut().zip(self.push.iter_mut()).zip(lengths.iter().zip(weights)).enumerate()
+            {
+                let d = *x - anchor;
+                // Most particles are within reach: no square root for them.
+                if j == *held || w <= 0.0 || d.length_squared() <= reach * reach {
+                    continue;
+                }
+                let delta = d * (reach / d.length() - 1.0);
+                *x += delta;
+                *push += delta / w;
+            }
+        }
+        &self.push
     }
 
     /// Each particle's move toward its target for a substep of `dt`
@@ -68,7 +136,21 @@ impl Holds {
             let cap = hold.max_acceleration * dt * dt;
             let length = delta.length();
             let delta = if length > cap { delta * (cap / length) } else { delta };
-            self.push[i] = delta / w;
+            let mut at = self.x[i] + delta;
+            // With a reach, the hand cannot take the particle farther from a
+            // pin than the cloth between them is long.
+            if let Some((_, lengths)) = self.reach.iter().find(|(p, _)| *p == i) {
+                for _ in 0..PIN_SWEEPS {
+                    for (pin, (&reach, _)) in lengths.iter().zip(weights).enumerate().filter(|(_, (_, w))| **w == 0.0) {
+                        let d = at - self.x[pin];
+                        let distance = d.length();
+                        if distance > reach {
+                            at = self.x[pin] + d * (reach / distance);
+                        }
+                    }
+                }
+            }
+            self.push[i] = (at - self.x[i]) / w;
         }
         &self.push
     }

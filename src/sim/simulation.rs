@@ -500,8 +500,25 @@ impl Simulation {
     /// `max_acceleration` m/s² (see [`super::hold`]); holding it again
     /// moves the target. It stays free, so the bars (and the inextensible
     /// projection) share the pull instead of stretching to wherever the
-    /// hand is. A fixed particle is not moved by a hold.
+    /// hand is; and it has the hand's reach: every particle is kept within
+    /// its rest path length of it, and it within the pins' reach, so a fast
+    /// pull does not outrun the passes. A fixed particle is not moved by a
+    /// hold.
     pub fn hold(&mut self, index: usize, target: Vec3, max_acceleration: f32) -> Result<(), SimError> {
+        self.hold_with(index, target, max_acceleration, true)
+    }
+
+    /// [`Self::hold`] with the hand's reach (`reach`) or without it: the
+    /// bounded pull alone, which a fast hand outruns. The choice is made
+    /// when the particle is first held. Starting a hold with a reach finds
+    /// the rest path to every particle (Dijkstra's algorithm over the bars).
+    pub fn hold_with(
+        &mut self,
+        index: usize,
+        target: Vec3,
+        max_acceleration: f32,
+        reach: bool,
+    ) -> Result<(), SimError> {
         self.check_index(index)?;
         if !target.is_finite() {
             return Err(SimError::Param(ParamError::new("hold target", target, "finite coordinates")));
@@ -523,9 +540,20 @@ impl Simulation {
                     self.inverse_mass[index] = weight;
                     self.solver.set_inverse_mass(index, weight);
                 }
+                let lengths = reach.then(|| self.reach_from(index));
+                self.holds.set_reach(index, lengths);
             }
         }
         Ok(())
+    }
+
+    /// The rest path length along the bars from particle `index` to every
+    /// particle (metres, infinite where no path leads).
+    fn reach_from(&self, index: usize) -> Vec<f32> {
+        let mut from = vec![false; self.positions.len()];
+        from[index] = true;
+        let tethers = Tethers::new(self.positions.len(), self.mesh.bars(), &from);
+        tethers.anchor.iter().zip(tethers.length).map(|(a, l)| if a.is_some() { l } else { f32::INFINITY }).collect()
     }
 
     /// Lets go of particle `index` if it is held; it keeps its velocity
@@ -533,6 +561,7 @@ impl Simulation {
     pub fn release(&mut self, index: usize) {
         let before = self.holds.list.len();
         self.holds.list.retain(|h| h.particle != index);
+        self.holds.set_reach(index, None);
         if self.holds.list.len() < before && !self.fixed[index] {
             let weight = self.material.weight[index];
             self.inverse_mass[index] = weight;

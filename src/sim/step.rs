@@ -14,12 +14,15 @@
 //!                d ← (1 − δ) d + w h² f/m + h² g,  x ← x + d + w Δ
 //!                (x_pred = x + d: the air's push is a force settled into d)
 //!    hold        (while a particle is held) each held particle moved
-//!                toward its target, at most a_max (h/n)² ([`super::hold`])
+//!                toward its target, at most a_max (h/n)², and kept within
+//!                the pins' reach ([`super::hold`])
 //! 2. relax       tethers, then `relaxations` Gauss–Seidel passes over the
 //!                bars (the seed's Figure 3, XPBD when compliant)
 //!    coarse      (grids, when on) the stretch the passes left taken out
 //!                on the grid coarsened 2, 4, 8, … times, coarsest first,
 //!                and interpolated down as a push ([`super::hierarchy`])
+//!    reach       (while a particle is held) every free particle kept within
+//!                its rest path length of the held one ([`super::hold`])
 //!    project     (when inextensible) Newton iterations that put every
 //!                edge back to its rest length at once
 //!                ([`super::inextensible`]), each followed by
@@ -182,7 +185,8 @@ pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 
     if let Some(push) = push {
         solver.push(push);
     }
-    if let Some((holds, weights)) = hold {
+    let mut hold = hold;
+    if let Some((holds, weights)) = hold.as_mut() {
         solver.read(&mut holds.x, &mut holds.x_prev);
         solver.push(holds.compute(s.dt, weights));
     }
@@ -190,6 +194,10 @@ pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 
     if let Some((phase, step)) = coarse {
         solver.read(&mut phase.x, &mut phase.x_prev);
         solver.push(phase.compute(step));
+    }
+    if let Some((holds, weights)) = hold.filter(|(holds, _)| holds.has_reach()) {
+        solver.read(&mut holds.x, &mut holds.x_prev);
+        solver.push(holds.tether(weights));
     }
     if let Some((phase, step)) = project {
         solver.read(&mut phase.x, &mut phase.x_prev);
