@@ -138,40 +138,23 @@ impl<'a> ContactStep<'a> {
     /// `k` may move, as a bit mask (bit l: lane l). Conservative: a clear
     /// bit is a particle that [`Self::resolve`] leaves exactly where it is.
     ///
-    /// The box test of [`Self::may_touch`] on the box of `x0` and `x`, lane
-    /// by lane with the same comparisons on the same values; and for a
-    /// sphere that stands still, the particles in its box but clear of it:
-    /// farther than r from the surface and farther from it than the path is
-    /// long (so neither the ray cast nor the push can act), each by a margin
-    /// of 10⁻⁴ of the distance to the centre, far above the rounding of the
-    /// collider frame's rotation (a few ulps) that `resolve` works in.
+    /// [`Self::may_touch`] on each lane's box of `x0` and `x` (the test
+    /// `resolve` makes); and for a sphere that stands still, the particles
+    /// in its box but clear of it: farther than r from the surface and
+    /// farther from it than the path is long (so neither the ray cast nor
+    /// the push can act), each by a margin of 10⁻⁴ of the distance to the
+    /// centre, far above the rounding of the collider frame's rotation (a
+    /// few ulps) that `resolve` works in.
     #[inline(always)]
     pub(crate) fn may_touch_lanes(&self, k: usize, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        let c = &self.colliders[k];
-        let mask = |test: &dyn Fn(usize) -> bool| (0..LANES).fold(0u8, |m, l| m | (u8::from(test(l)) << l));
-        // glam's `Vec3::min` and `max`, lane by lane.
-        let bound = |f: fn(f32, f32) -> f32| -> Point<F32x8> {
-            std::array::from_fn(|i| F32x8(std::array::from_fn(|l| f(x0[i].0[l], x[i].0[l]))))
-        };
-        let (lo, hi) = (bound(|a, b| if a < b { a } else { b }), bound(|a, b| if a > b { a } else { b }));
-        match (c.bounds, c.plane) {
-            (Some((b0, b1)), _) => {
-                let (b0, b1) = (b0.to_array(), b1.to_array());
-                let boxed = mask(&|l| (0..3).all(|i| lo[i].0[l] <= b1[i]) && (0..3).all(|i| hi[i].0[l] >= b0[i]));
-                match c.ball {
-                    Some((centre, radius)) if boxed != 0 => boxed & !self.clear_of_ball(centre, radius, x0, x),
-                    _ => boxed,
-                }
-            }
-            (None, Some(plane)) => plane.iter().fold(0, |m, &(n, point)| {
-                let deepest = Vec3::select(n.cmpge(Vec3::ZERO), Vec3::ONE, Vec3::ZERO).to_array();
-                let corner = |i: usize| if deepest[i] == 1.0 { lo[i] } else { hi[i] };
-                let (n, point) = (n.to_array(), point.to_array());
-                let along = |i: usize| (corner(i) - F32x8::splat(point[i])) * F32x8::splat(n[i]);
-                let distance = along(0) + along(1) + along(2);
-                m | mask(&|l| distance.0[l] < self.thickness)
-            }),
-            (None, None) => u8::MAX,
+        let lane = |p: &Point<F32x8>, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+        let boxed = (0..LANES).fold(0u8, |m, l| {
+            let (a, b) = (lane(x0, l), lane(x, l));
+            m | (u8::from(self.may_touch(k, a.min(b), a.max(b))) << l)
+        });
+        match self.colliders[k].ball {
+            Some((centre, radius)) if boxed != 0 => boxed & !self.clear_of_ball(centre, radius, x0, x),
+            _ => boxed,
         }
     }
 

@@ -46,6 +46,8 @@
 
 use glam::Vec3;
 
+use super::tether::pull_within;
+
 /// Sweeps over the pins that keep a held particle within their reach.
 const PIN_SWEEPS: usize = 4;
 
@@ -108,12 +110,10 @@ impl Holds {
             for (j, ((x, push), (&reach, &w))) in
                 self.x.iter_mut().zip(self.push.iter_mut()).zip(lengths.iter().zip(weights)).enumerate()
             {
-                let d = *x - anchor;
-                // Most particles are within reach: no square root for them.
-                if j == *held || w <= 0.0 || d.length_squared() <= reach * reach {
+                if j == *held || w <= 0.0 {
                     continue;
                 }
-                let delta = d * (reach / d.length() - 1.0);
+                let delta = pull_within(*x, anchor, reach) - *x;
                 *x += delta;
                 *push += delta / w;
             }
@@ -140,13 +140,11 @@ impl Holds {
             // With a reach, the hand cannot take the particle farther from a
             // pin than the cloth between them is long.
             if let Some((_, lengths)) = self.reach.iter().find(|(p, _)| *p == i) {
+                let pins: Vec<(Vec3, f32)> =
+                    (0..weights.len()).filter(|&p| weights[p] == 0.0).map(|p| (self.x[p], lengths[p])).collect();
                 for _ in 0..PIN_SWEEPS {
-                    for (pin, (&reach, _)) in lengths.iter().zip(weights).enumerate().filter(|(_, (_, w))| **w == 0.0) {
-                        let d = at - self.x[pin];
-                        let distance = d.length();
-                        if distance > reach {
-                            at = self.x[pin] + d * (reach / distance);
-                        }
+                    for &(pin, reach) in &pins {
+                        at = pull_within(at, pin, reach);
                     }
                 }
             }

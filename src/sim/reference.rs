@@ -27,7 +27,7 @@ use super::mesh::Bar;
 use super::relax::{project_bar, project_bar_compliant};
 use super::self_contact::{SelfContact, SelfContactStep};
 use super::step::{Solver, Substep};
-use super::tether::Tethers;
+use super::tether::{Tethers, pull_within};
 
 /// The seed-faithful solver's state, in scene order.
 #[derive(Clone, Debug)]
@@ -211,11 +211,7 @@ pub fn apply_tethers(positions: &mut [Vec3], inverse_mass: &[f32], tethers: &Tet
     for i in 0..positions.len() {
         if let (Some(anchor), true) = (tethers.anchor[i], inverse_mass[i] > 0.0) {
             let reach = tethers.length[i] * (1.0 + slack);
-            let d = positions[i] - positions[anchor as usize];
-            let len = d.length();
-            if len > reach {
-                positions[i] = positions[anchor as usize] + d * (reach / len);
-            }
+            positions[i] = pull_within(positions[i], positions[anchor as usize], reach);
         }
     }
 }

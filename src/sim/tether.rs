@@ -19,6 +19,8 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use glam::Vec3;
+
 use super::mesh::Bar;
 
 /// Each particle's attachment: the nearest fixed particle along the bars and
@@ -30,6 +32,15 @@ pub struct Tethers {
     pub anchor: Vec<Option<u32>>,
     /// `length[i]`: the rest path length to it, metres (0 without anchor).
     pub length: Vec<f32>,
+}
+
+/// `x` put back onto the sphere of radius `reach` around `anchor` if it is
+/// outside it (the one-sided constraint above), else `x` unchanged.
+#[inline]
+pub fn pull_within(x: Vec3, anchor: Vec3, reach: f32) -> Vec3 {
+    let d = x - anchor;
+    let len = d.length();
+    if len > reach { anchor + d * (reach / len) } else { x }
 }
 
 /// f64 distances ordered for the heap.

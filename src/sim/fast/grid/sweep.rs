@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{Op, Slot, Tile};
+use super::{Op, SeamBar, Slot, Tile};
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
 use crate::sim::fast::simd::dispatch;
 
@@ -70,6 +70,8 @@ fn relax_boundary_body(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
 
 #[inline(always)]
 fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
+    // Slot and lane of a seam bar's end in `a`, then in `b`.
+    let ends = |s: &SeamBar| (s.a.slot as usize, s.a.lane as usize, s.b.slot as usize, s.b.lane as usize);
     let mut worst = f32::NEG_INFINITY;
     let mut start = 0;
     for &end in &a.seam_ends {
@@ -80,8 +82,7 @@ fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f
         let (mut pa, mut pb) = ([F32x8::splat(0.0); 3], [F32x8::splat(0.0); 3]);
         let (mut wa, mut wb, mut mu) = (F32x8::splat(0.0), F32x8::splat(0.0), F32x8::splat(0.0));
         for (l, seam) in group.iter().enumerate() {
-            let (sa, la, sb, lb) =
-                (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
+            let (sa, la, sb, lb) = ends(seam);
             for k in 0..3 {
                 pa[k].0[l] = a.position[sa][k].0[la];
                 pb[k].0[l] = b.position[sb][k].0[lb];
@@ -96,8 +97,7 @@ fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f
         let beta = if XPBD { sweep.betas[kind] } else { 0.0 };
         let v = relax_lanes::<XPBD>(&mut pa, wa, &mut pb, wb, rest, &mut mu, beta, sweep.omega);
         for (l, seam) in group.iter().enumerate() {
-            let (sa, la, sb, lb) =
-                (seam.a.slot as usize, seam.a.lane as usize, seam.b.slot as usize, seam.b.lane as usize);
+            let (sa, la, sb, lb) = ends(seam);
             for k in 0..3 {
                 a.position[sa][k].0[la] = pa[k].0[l];
                 b.position[sb][k].0[lb] = pb[k].0[l];
