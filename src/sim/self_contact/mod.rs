@@ -25,22 +25,31 @@
 //! it keeps particles apart, so layers stay apart where the particle spacing
 //! is about the thickness.
 //!
-//! **Neighbour search.** A hash grid with cells of side 2r, filled by a
-//! counting sort of the particles' cell hashes, rebuilt every substep (a
-//! linear pass; rebuilding once per step would need cells of the step's
+//! **Neighbour search.** A hash grid with cells of side 2r, the particles
+//! sorted by cell and their positions copied in that order every substep
+//! (a linear pass; rebuilding once per step would need cells of the step's
 //! whole travel and visit more pairs). A particle's candidates are the
-//! particles of the 8 cells its ball of radius r can reach (its own and the
-//! nearer neighbour along each axis; measured faster than 27 cells of side
-//! r, whose scattered lookups dominated). No all-pairs loop.
+//! particles of the 8 cells its ball of radius r can reach, tested eight
+//! at a time in lanes ([`cells`]). No all-pairs loop.
 //!
 //! **Determinism.** Corrections are computed for every particle from the
 //! same snapshot of positions (Jacobi), each summing its neighbours in the
 //! fixed order of the sorted table, then applied at once: the result does
 //! not depend on the thread count. Large cloths split the particles over
-//! the rayon pool.
+//! the rayon pool. The phase reads each pair's data (substep-start
+//! positions, weights, rest positions) from copies in the table's order,
+//! so the particles near one another are near in memory.
 
-use glam::{IVec3, Vec3};
+mod cells;
+mod pair;
+
+use crate::sim::fast::simd::dispatch;
+
+use glam::Vec3;
 use rayon::prelude::*;
+
+use cells::Cells;
+use pair::{Slots, pair_corrections};
 
 /// Cloths of at least this many particles find their corrections on the
 /// thread pool.
@@ -50,13 +59,12 @@ pub const PARALLEL_PARTICLES: usize = 8192;
 #[derive(Clone, Debug, Default)]
 pub struct SelfContact {
     rest: Vec<Vec3>,
-    /// `entries[start[h]..start[h + 1]]`: the particles whose cell hashes to h.
-    start: Vec<u32>,
-    entries: Vec<u32>,
-    /// Each particle's cell hash, and its cell (to tell apart two cells
-    /// whose hashes collide).
-    cells: Vec<u32>,
-    coords: Vec<IVec3>,
+    cells: Cells,
+    /// Per slot of `cells` (the particles sorted by cell): the substep-start
+    /// position, the inverse mass, the rest position and the correction.
+    slot_start: Vec<Vec3>,
+    slot_weight: Vec<f32>,
+    slot_rest: Vec<Vec3>,
     correction: Vec<Vec3>,
     /// Positions, substep-start positions and weights in scene order, for
     /// solvers whose own layout is not scene order.
@@ -76,14 +84,43 @@ pub struct SelfContactStep {
     pub parallel: bool,
 }
 
-fn cell_of(p: Vec3, inverse_cell: f32) -> IVec3 {
-    (p * inverse_cell).floor().as_ivec3()
+dispatch! {
+    /// The corrections of slots `first..first + out.len()`.
+    fn corrections(phase: &SelfContact, first: usize, out: &mut [Vec3], step: &SelfContactStep)
+        = corrections_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
-fn hash(c: IVec3, size: usize) -> usize {
-    let h = (c.x.wrapping_mul(92_837_111)) ^ (c.y.wrapping_mul(689_287_499)) ^ (c.z.wrapping_mul(283_923_481));
-    h.unsigned_abs() as usize % size
+#[inline(always)]
+fn corrections_body(phase: &SelfContact, first: usize, out: &mut [Vec3], step: &SelfContactStep) {
+    // Every pair closer than r, owner by owner, each owner's in the order
+    // of the search.
+    let (mut own, mut other) = (Vec::new(), Vec::new());
+    let mut ends = Vec::with_capacity(out.len());
+    for slot in first..first + out.len() {
+        if phase.slot_weight[slot] > 0.0 {
+            phase.cells.push_near(slot, step.thickness, &mut other);
+            own.resize(other.len(), slot as u32);
+        }
+        ends.push(other.len());
+    }
+    let mut moved = vec![Vec3::ZERO; other.len()];
+    let slots = Slots {
+        position: phase.cells.axes(),
+        start: &phase.slot_start,
+        rest: &phase.slot_rest,
+        weight: &phase.slot_weight,
+    };
+    pair_corrections(&slots, &own, &other, &mut moved, step);
+    // Each owner sums its pairs in order, from zero.
+    let mut begin = 0;
+    for (out, &end) in out.iter_mut().zip(&ends) {
+        *out = moved[begin..end].iter().fold(Vec3::ZERO, |total, &m| total + m);
+        begin = end;
+    }
 }
+
+/// Slots of the sorted table one task of the thread pool takes.
+const CHUNK: usize = 1024;
 
 impl SelfContact {
     /// For a cloth whose rest shape is `rest`.
@@ -108,108 +145,28 @@ impl SelfContact {
                 x[i] = x0[i] + d * (limit / len);
             }
         }
-        self.build(x, 2.0 * r);
+        self.cells.build(x, 2.0 * r);
+        let order = &self.cells.order;
+        self.slot_start.clear();
+        self.slot_start.extend(order.iter().map(|&i| x0[i as usize]));
+        self.slot_weight.clear();
+        self.slot_weight.extend(order.iter().map(|&i| w[i as usize]));
+        self.slot_rest.clear();
+        self.slot_rest.extend(order.iter().map(|&i| self.rest[i as usize]));
         let mut correction = std::mem::take(&mut self.correction);
         correction.clear();
         correction.resize(n, Vec3::ZERO);
-        let x_now: &[Vec3] = x;
-        let find = |(i, out): (usize, &mut Vec3)| *out = self.correction_of(i, x_now, x0, w, step);
+        let this = &*self;
+        let find = |(c, out): (usize, &mut [Vec3])| corrections(this, c * CHUNK, out, step);
         if step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1 {
-            correction.par_iter_mut().enumerate().for_each(find);
+            correction.par_chunks_mut(CHUNK).enumerate().for_each(find);
         } else {
-            correction.iter_mut().enumerate().for_each(find);
+            correction.chunks_mut(CHUNK).enumerate().for_each(find);
         }
-        for (p, c) in x.iter_mut().zip(&correction) {
-            *p += *c;
+        for (&i, c) in self.cells.order.iter().zip(&correction) {
+            x[i as usize] += *c;
         }
         self.correction = correction;
-    }
-
-    /// Counting sort of the particles by the hash of their cell.
-    fn build(&mut self, x: &[Vec3], cell: f32) {
-        let size = (2 * x.len()).max(1);
-        let inverse = 1.0 / cell;
-        self.coords.clear();
-        self.coords.extend(x.iter().map(|&p| cell_of(p, inverse)));
-        self.cells.clear();
-        self.cells.extend(self.coords.iter().map(|&c| hash(c, size) as u32));
-        self.start.clear();
-        self.start.resize(size + 1, 0);
-        for &h in &self.cells {
-            self.start[h as usize + 1] += 1;
-        }
-        for k in 0..size {
-            self.start[k + 1] += self.start[k];
-        }
-        self.entries.clear();
-        self.entries.resize(x.len(), 0);
-        let mut fill = self.start.clone();
-        for (i, &h) in self.cells.iter().enumerate() {
-            self.entries[fill[h as usize] as usize] = i as u32;
-            fill[h as usize] += 1;
-        }
-    }
-
-    /// The displacement particle i gets from every particle within r of it.
-    fn correction_of(&self, i: usize, x: &[Vec3], x0: &[Vec3], w: &[f32], step: &SelfContactStep) -> Vec3 {
-        let wi = w[i];
-        if wi == 0.0 {
-            return Vec3::ZERO;
-        }
-        let r = step.thickness;
-        let size = self.start.len() - 1;
-        // Cells of side 2r: the ball of radius r around x_i reaches at most
-        // the particle's own cell and, along each axis, the one on the side
-        // of the cell it is nearer to: 8 cells.
-        let scaled = x[i] / (2.0 * r);
-        let centre = scaled.floor().as_ivec3();
-        let toward = (scaled - scaled.floor()).cmplt(Vec3::splat(0.5));
-        let side = IVec3::select(toward, IVec3::splat(-1), IVec3::ONE);
-        let mut total = Vec3::ZERO;
-        for dz in [0, side.z] {
-            for dy in [0, side.y] {
-                for dx in [0, side.x] {
-                    let cell = centre + IVec3::new(dx, dy, dz);
-                    let h = hash(cell, size);
-                    for &j in &self.entries[self.start[h] as usize..self.start[h + 1] as usize] {
-                        let j = j as usize;
-                        // A bucket holds every cell of its hash: take the
-                        // particles of this cell only, so none counts twice.
-                        if j != i && self.coords[j] == cell {
-                            total += self.pair(i, j, wi, x, x0, w, step);
-                        }
-                    }
-                }
-            }
-        }
-        total
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn pair(&self, i: usize, j: usize, wi: f32, x: &[Vec3], x0: &[Vec3], w: &[f32], step: &SelfContactStep) -> Vec3 {
-        let r = step.thickness;
-        let d = x[i] - x[j];
-        let dist2 = d.length_squared();
-        if dist2 >= r * r || dist2 == 0.0 {
-            return Vec3::ZERO;
-        }
-        let rest = self.rest[i].distance(self.rest[j]);
-        let keep = rest.min(r);
-        let dist = dist2.sqrt();
-        if dist >= keep {
-            return Vec3::ZERO;
-        }
-        let share = wi / (wi + w[j]);
-        let n = d / dist;
-        let push = (keep - dist) * share;
-        // Friction: the pair's relative motion along the contact plane.
-        let relative = (x[i] - x0[i]) - (x[j] - x0[j]);
-        let tangential = relative - n * relative.dot(n);
-        let slide = tangential.length();
-        let bound = step.friction * push;
-        let friction = if slide <= bound { tangential * share } else { tangential * (share * bound / slide) };
-        n * push - friction
     }
 }
 

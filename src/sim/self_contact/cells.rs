@@ -1,0 +1,318 @@
+//! The self-collide phase's neighbour search: a hash grid with the
+//! particles sorted by cell.
+//!
+//! Cells have side s = 2r and are grouped in blocks of 4 × 4 × 4. Cell
+//! c = ⌊x / s⌋ goes to one of 2^b ≥ 2n buckets: its place in its block,
+//! c mod 4 (6 bits), under a hash of the block, B = ⌊c / 4⌋,
+//!
+//! ```text
+//! bucket(c) = [(B_x·p_1 ⊕ B_y·p_2 ⊕ B_z·p_3) · φ ≫ (32 − b + 6)] · 64 + (c mod 4)
+//! ```
+//!
+//! (φ = 2³² / golden ratio: Fibonacci hashing moves every bit of the block
+//! into the top bits, where a plain `mod 2^b` would keep only the low bits
+//! of each coordinate.) A counting sort by bucket, stable in the particle
+//! index, puts each bucket's particles into one contiguous run of *slots*,
+//! and their positions are copied there: neighbouring cells share a block,
+//! so a query reads its candidates from a few short runs of nearby memory.
+//!
+//! **Queries.** The ball of radius r around x reaches at most x's own cell
+//! and, along each axis, the neighbour on the side of the cell x is nearer
+//! to: 8 cells. Each cell's bucket run is tested eight slots at a time in
+//! lanes (|x − x_j|² < r², not x itself), and the query gets the slots that
+//! pass, in order. No test of the cell is needed:
+//! - the 8 cells differ pairwise by at most 1 along each axis, so their
+//!   places in a block, c mod 4, differ: they never share a bucket, and no
+//!   candidate counts twice;
+//! - another cell in the same bucket has the same c mod 4, so it lies ≥ 4
+//!   cells away along some axis, and its particles more than 3 · 2r from
+//!   x: they fail the distance.
+//!
+//! The order a query returns its candidates in — the 8 cells in a fixed
+//! order, then each cell's particles by index — does not depend on the
+//! hash, the bucket count or the thread count.
+
+use glam::{IVec3, Vec3};
+
+use crate::sim::fast::kernel::LANES;
+use crate::sim::fast::simd::dispatch;
+
+/// The particles of one substep sorted by the cell they are in.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Cells {
+    /// 1/s, per metre.
+    inverse_side: f32,
+    /// b: the table has 2^b buckets.
+    bits: u32,
+    /// `start[h]..start[h + 1]`: the slots of bucket h.
+    start: Vec<u32>,
+    /// Slot → particle.
+    pub(super) order: Vec<u32>,
+    /// Each slot's position, one array per axis, padded with `LANES`
+    /// slots so a lane load past a bucket's end stays in bounds.
+    axes: [Vec<f32>; 3],
+    /// Scratch: each particle's bucket, and each bucket's next free slot.
+    buckets: Vec<u32>,
+    fill: Vec<u32>,
+}
+
+/// The cell a point is in, for cells of side 1/`inverse_side`.
+#[inline(always)]
+fn cell_of(p: Vec3, inverse_side: f32) -> IVec3 {
+    (p * inverse_side).floor().as_ivec3()
+}
+
+/// Cells per block along each axis (as a power of two).
+const BLOCK_BITS: u32 = 2;
+
+#[inline(always)]
+fn bucket(c: IVec3, bits: u32) -> usize {
+    let block = c >> BLOCK_BITS as i32;
+    let mixed = (block.x as u32).wrapping_mul(92_837_111)
+        ^ (block.y as u32).wrapping_mul(689_287_499)
+        ^ (block.z as u32).wrapping_mul(283_923_481);
+    let block_bits = bits - 3 * BLOCK_BITS;
+    let within = (1 << BLOCK_BITS) - 1;
+    let local = (c.x as u32 & within) | (c.y as u32 & within) << BLOCK_BITS | (c.z as u32 & within) << (2 * BLOCK_BITS);
+    ((mixed.wrapping_mul(0x9E37_79B9) >> (32 - block_bits)) << (3 * BLOCK_BITS) | local) as usize
+}
+
+dispatch! {
+    /// Each point's bucket, for cells of side 1/`inverse_side` and
+    /// 2^`bits` buckets (compiled for the SIMD level: `floor` is one
+    /// instruction there and a library call in the baseline).
+    fn buckets_of(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut Vec<u32>)
+        = buckets_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn buckets_body(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut Vec<u32>) {
+    buckets.clear();
+    buckets.extend(x.iter().map(|&p| bucket(cell_of(p, inverse_side), bits) as u32));
+}
+
+impl Cells {
+    /// Sorts the particles at `x` into cells of side `side` (metres, > 0).
+    pub(super) fn build(&mut self, x: &[Vec3], side: f32) {
+        // 2^b ≥ 2n buckets, and at least two blocks' worth.
+        let bits = (2 * x.len().max(1)).next_power_of_two().trailing_zeros().max(3 * BLOCK_BITS + 1);
+        self.build_with(x, side, bits);
+    }
+
+    /// [`Self::build`] into 2^`bits` buckets (`bits` in 7..=32).
+    fn build_with(&mut self, x: &[Vec3], side: f32, bits: u32) {
+        let n = x.len();
+        self.inverse_side = 1.0 / side;
+        self.bits = bits;
+        let size = 1usize << self.bits;
+        buckets_of(x, self.inverse_side, self.bits, &mut self.buckets);
+        self.start.clear();
+        self.start.resize(size + 1, 0);
+        for &h in &self.buckets {
+            self.start[h as usize + 1] += 1;
+        }
+        for h in 0..size {
+            self.start[h + 1] += self.start[h];
+        }
+        // Stable in the particle index: each bucket filled in index order.
+        self.fill.clone_from(&self.start);
+        self.order.clear();
+        self.order.resize(n, 0);
+        for (i, &h) in self.buckets.iter().enumerate() {
+            let next = &mut self.fill[h as usize];
+            self.order[*next as usize] = i as u32;
+            *next += 1;
+        }
+        for (axis, values) in self.axes.iter_mut().enumerate() {
+            values.clear();
+            values.extend(self.order.iter().map(|&i| x[i as usize][axis]));
+            values.resize(n + LANES, f32::INFINITY);
+        }
+    }
+
+    /// The positions in slot order, per axis (padded).
+    pub(super) fn axes(&self) -> &[Vec<f32>; 3] {
+        &self.axes
+    }
+
+    /// The position copied into `slot`.
+    #[inline(always)]
+    pub(super) fn position(&self, slot: usize) -> Vec3 {
+        Vec3::new(self.axes[0][slot], self.axes[1][slot], self.axes[2][slot])
+    }
+
+    /// Appends to `near` every slot j ≠ `slot` whose position is closer
+    /// than `radius` (metres, ≤ s/2) to `slot`'s, in the order the module
+    /// docs give.
+    #[inline(always)]
+    pub(super) fn push_near(&self, slot: usize, radius: f32, near: &mut Vec<u32>) {
+        let p = self.position(slot);
+        let scaled = p * self.inverse_side;
+        let centre = scaled.floor().as_ivec3();
+        let toward = (scaled - scaled.floor()).cmplt(Vec3::splat(0.5));
+        let side = IVec3::select(toward, IVec3::splat(-1), IVec3::ONE);
+        let r2 = radius * radius;
+        for dz in [0, side.z] {
+            for dy in [0, side.y] {
+                for dx in [0, side.x] {
+                    let cell = centre + IVec3::new(dx, dy, dz);
+                    let h = bucket(cell, self.bits);
+                    let (from, to) = (self.start[h] as usize, self.start[h + 1] as usize);
+                    let mut first = from;
+                    while first < to {
+                        let mut hits = self.near_lanes(first, to, slot, p, r2);
+                        while hits != 0 {
+                            near.push((first + hits.trailing_zeros() as usize) as u32);
+                            hits &= hits - 1;
+                        }
+                        first += LANES;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Bit l set when slot `first + l` is before `to`, is not `own` and
+    /// lies closer than √`r2` to `p`.
+    #[inline(always)]
+    fn near_lanes(&self, first: usize, to: usize, own: usize, p: Vec3, r2: f32) -> u8 {
+        let xs: &[f32; LANES] = lanes(&self.axes[0], first);
+        let ys: &[f32; LANES] = lanes(&self.axes[1], first);
+        let zs: &[f32; LANES] = lanes(&self.axes[2], first);
+        #[cfg(target_arch = "x86_64")]
+        #[allow(unsafe_code)]
+        if crate::sim::fast::simd::level() != crate::sim::fast::simd::SimdLevel::Portable {
+            // SAFETY: the level is AVX2 or above only when the CPU has AVX2.
+            return unsafe { avx2::near_lanes(xs, ys, zs, first, to, own, p, r2) };
+        }
+        let mut mask = 0u8;
+        for l in 0..LANES {
+            let (dx, dy, dz) = (p.x - xs[l], p.y - ys[l], p.z - zs[l]);
+            let d2 = dx * dx + dy * dy + dz * dz;
+            let slot = first + l;
+            let hit = (d2 < r2) & (slot < to) & (slot != own);
+            mask |= u8::from(hit) << l;
+        }
+        mask
+    }
+}
+
+/// Eight values of `column` from `first` (the padding keeps them in
+/// bounds).
+#[inline(always)]
+fn lanes<T>(column: &[T], first: usize) -> &[T; LANES] {
+    column[first..first + LANES].first_chunk().expect("padded by LANES")
+}
+
+/// [`Cells::near_lanes`] in AVX2 registers: the compiler turned the lane
+/// loop into scalar compares or vector ones depending on the code around it.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod avx2 {
+    use std::arch::x86_64::{
+        _CMP_LT_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_si256, _mm256_castsi256_ps,
+        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi32, _mm256_loadu_ps, _mm256_movemask_ps, _mm256_mul_ps,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_sub_ps,
+    };
+
+    use glam::Vec3;
+
+    use crate::sim::fast::kernel::LANES;
+
+    /// Same answer as the lane loop of [`super::Cells::near_lanes`]; slots
+    /// and bucket ends are below 2³¹ (particle counts are `u32`).
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn near_lanes(
+        xs: &[f32; LANES],
+        ys: &[f32; LANES],
+        zs: &[f32; LANES],
+        first: usize,
+        to: usize,
+        own: usize,
+        p: Vec3,
+        r2: f32,
+    ) -> u8 {
+        // SAFETY: each load reads the eight values of a `[_; 8]`.
+        let (x, y, z) =
+            unsafe { (_mm256_loadu_ps(xs.as_ptr()), _mm256_loadu_ps(ys.as_ptr()), _mm256_loadu_ps(zs.as_ptr())) };
+        let dx = _mm256_sub_ps(_mm256_set1_ps(p.x), x);
+        let dy = _mm256_sub_ps(_mm256_set1_ps(p.y), y);
+        let dz = _mm256_sub_ps(_mm256_set1_ps(p.z), z);
+        // (dx² + dy²) + dz², the order of the lane loop (no fused multiply-add).
+        let d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+        let close = _mm256_cmp_ps::<_CMP_LT_OQ>(d2, _mm256_set1_ps(r2));
+        let slot = _mm256_add_epi32(_mm256_set1_epi32(first as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        let before_end = _mm256_cmpgt_epi32(_mm256_set1_epi32(to as i32), slot);
+        let is_own = _mm256_cmpeq_epi32(slot, _mm256_set1_epi32(own as i32));
+        let slot_ok = _mm256_andnot_si256(is_own, before_end);
+        _mm256_movemask_ps(_mm256_and_ps(close, _mm256_castsi256_ps(slot_ok))) as u8
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pair closer than r, found by testing all pairs.
+    fn all_pairs(x: &[Vec3], r: f32) -> Vec<(usize, usize)> {
+        let mut pairs = Vec::new();
+        for i in 0..x.len() {
+            for j in 0..x.len() {
+                if i != j && x[i].distance_squared(x[j]) < r * r {
+                    pairs.push((i, j));
+                }
+            }
+        }
+        pairs
+    }
+
+    #[test]
+    fn the_search_finds_every_pair_closer_than_r_once_in_index_order_per_cell() {
+        // 600 points in a 0.2 m box (600 · (4π/3 · 0.02³) / 0.2³ ≈ 2.5 within
+        // r = 0.02 of each: about 1 500 ordered pairs), some
+        // on cell boundaries (multiples of s = 0.04), and a few points 4
+        // cells (0.16 m) away, whose cells share buckets with near ones.
+        let mut seed = 12345u32;
+        let mut random = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        let r = 0.02;
+        let mut x: Vec<Vec3> = (0..600).map(|_| Vec3::new(random(), random(), random()) * 0.2).collect();
+        for k in 0..20 {
+            x.push(Vec3::new(0.04 * (k % 5) as f32, 0.04, 0.08));
+            x.push(Vec3::new(0.04 * (k % 5) as f32 + 0.16, 0.04, 0.08));
+        }
+        // The table as the phase sizes it, and one of two blocks, where
+        // nearly every bucket holds several cells.
+        let expected = all_pairs(&x, r);
+        assert!(expected.len() > 1000, "the test has pairs to find: {}", expected.len());
+        for bits in [None, Some(7)] {
+            let mut cells = Cells::default();
+            match bits {
+                None => cells.build(&x, 2.0 * r),
+                Some(bits) => cells.build_with(&x, 2.0 * r, bits),
+            }
+            let mut found = Vec::new();
+            for slot in 0..x.len() {
+                let i = cells.order[slot] as usize;
+                let mut slots = Vec::new();
+                cells.push_near(slot, r, &mut slots);
+                let near: Vec<usize> = slots.iter().map(|&j| cells.order[j as usize] as usize).collect();
+                // Within one cell the particles come by index.
+                let cell = |j: usize| cell_of(x[j], 1.0 / (2.0 * r));
+                for w in near.windows(2) {
+                    if cell(w[0]) == cell(w[1]) {
+                        assert!(w[0] < w[1], "{near:?}");
+                    }
+                }
+                found.extend(near.into_iter().map(|j| (i, j)));
+            }
+            found.sort_unstable();
+            assert_eq!(found, expected, "{bits:?} bits");
+        }
+    }
+}
