@@ -30,7 +30,10 @@
 //! (a linear pass; rebuilding once per step would need cells of the step's
 //! whole travel and visit more pairs). A particle's candidates are the
 //! particles of the 8 cells its ball of radius r can reach, tested eight
-//! at a time in lanes ([`cells`]). No all-pairs loop.
+//! at a time in lanes (`self_contact/cells.rs`, which shows why no
+//! candidate counts twice). No all-pairs loop. The pairs found are then
+//! pushed apart eight at a time in lanes (`self_contact/pair.rs`), each
+//! with the bits it gets alone.
 //!
 //! **Determinism.** Corrections are computed for every particle from the
 //! same snapshot of positions (Jacobi), each summing its neighbours in the
