@@ -49,6 +49,8 @@
 //! forever (up to 24 ulps a step at δ = 0.02). Carrying d itself removes the
 //! creep: a damped particle comes to rest.
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx;
 mod generic;
 mod grid;
 pub(crate) mod kernel;

@@ -21,6 +21,7 @@ use glam::Vec3;
 
 use super::SelfContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, per_lane};
+use crate::sim::fast::simd::{self, SimdLevel};
 
 /// What the phase reads of each slot of the sorted table.
 pub(super) struct Slots<'a> {
@@ -36,50 +37,96 @@ pub(super) struct Slots<'a> {
 
 /// What slot `other[k]` does to slot `own[k]`, for each k, into `out`
 /// (same length as `own` and `other`).
-#[inline(always)]
+#[allow(unsafe_code)]
 pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: &mut [Vec3], step: &SelfContactStep) {
+    #[cfg(target_arch = "x86_64")]
+    if simd::level() >= SimdLevel::Avx2 {
+        // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
+        // and FMA, the features `avx2::pair_corrections` is compiled for.
+        unsafe { avx2::pair_corrections(slots, own, other, out, step) };
+        return;
+    }
+    corrections_in(slots, own, other, out, step, F32x8, |v: F32x8| v.0);
+}
+
+/// [`pair_corrections`] on lanes of type `T`, made from eight values by
+/// `lanes` and read back by `values`.
+#[inline(always)]
+fn corrections_in<T: Real>(
+    slots: &Slots,
+    own: &[u32],
+    other: &[u32],
+    out: &mut [Vec3],
+    step: &SelfContactStep,
+    lanes: impl Fn([f32; LANES]) -> T,
+    values: impl Fn(T) -> [f32; LANES],
+) {
+    let [px, py, pz] = slots.position;
+    let axis = |v: &[f32], s: &[usize; LANES]| lanes(pick(v, s));
+    let vec = |v: &[Vec3], s: &[usize; LANES]| -> Point<T> { pick_points(v, s).map(&lanes) };
     for ((own, other), out) in own.chunks(LANES).zip(other.chunks(LANES)).zip(out.chunks_mut(LANES)) {
         // Lanes past the end pair slot 0 with itself: d = 0, nothing.
         let a: [usize; LANES] = std::array::from_fn(|l| own.get(l).map_or(0, |&s| s as usize));
         let b: [usize; LANES] = std::array::from_fn(|l| other.get(l).map_or(0, |&s| s as usize));
-        let moved = pair_lanes(slots, &a, &b, step);
+        let moved = rule(
+            [axis(px, &a), axis(py, &a), axis(pz, &a)],
+            [axis(px, &b), axis(py, &b), axis(pz, &b)],
+            vec(slots.start, &a),
+            vec(slots.start, &b),
+            vec(slots.rest, &a),
+            vec(slots.rest, &b),
+            axis(slots.weight, &a),
+            axis(slots.weight, &b),
+            step,
+        );
+        let [mx, my, mz] = moved.map(&values);
         for (l, out) in out.iter_mut().enumerate() {
-            *out = Vec3::new(moved[0].0[l], moved[1].0[l], moved[2].0[l]);
+            *out = Vec3::new(mx[l], my[l], mz[l]);
         }
     }
 }
 
+/// `v[s[l]]` for each lane l. `per_lane!` writes the eight loads out, and
+/// these are functions, not closures: `std::array::from_fn` and nested
+/// closures were left as calls in the AVX2 path.
 #[inline(always)]
-fn axis(v: &[f32], s: &[usize; LANES]) -> F32x8 {
-    per_lane!(|l| v[s[l]])
+fn pick(v: &[f32], s: &[usize; LANES]) -> [f32; LANES] {
+    per_lane!(|l| v[s[l]]).0
 }
 
+/// The coordinates of the points `v[s[l]]`, one array per axis.
 #[inline(always)]
-fn vec(v: &[Vec3], s: &[usize; LANES]) -> Point<F32x8> {
-    [per_lane!(|l| v[s[l]].x), per_lane!(|l| v[s[l]].y), per_lane!(|l| v[s[l]].z)]
+fn pick_points(v: &[Vec3], s: &[usize; LANES]) -> [[f32; LANES]; 3] {
+    [per_lane!(|l| v[s[l]].x).0, per_lane!(|l| v[s[l]].y).0, per_lane!(|l| v[s[l]].z).0]
 }
 
-/// The rule of the module docs for the eight pairs (a[l], b[l]).
+/// The rule of the module docs for eight pairs in lanes: i's position,
+/// j's, their substep-start positions, rest positions and weights.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn pair_lanes(slots: &Slots, a: &[usize; LANES], b: &[usize; LANES], step: &SelfContactStep) -> Point<F32x8> {
-    let [px, py, pz] = slots.position;
-    let xi = [axis(px, a), axis(py, a), axis(pz, a)];
-    let xj = [axis(px, b), axis(py, b), axis(pz, b)];
-    let (x0i, x0j) = (vec(slots.start, a), vec(slots.start, b));
-    let (rest_i, rest_j) = (vec(slots.rest, a), vec(slots.rest, b));
-    let (wi, wj) = (axis(slots.weight, a), axis(slots.weight, b));
+fn rule<T: Real>(
+    xi: Point<T>,
+    xj: Point<T>,
+    x0i: Point<T>,
+    x0j: Point<T>,
+    rest_i: Point<T>,
+    rest_j: Point<T>,
+    wi: T,
+    wj: T,
+    step: &SelfContactStep,
+) -> Point<T> {
+    let sub = |u: Point<T>, v: Point<T>| -> Point<T> { [u[0] - v[0], u[1] - v[1], u[2] - v[2]] };
+    let dot = |u: Point<T>, v: Point<T>| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let scale = |u: Point<T>, s: T| -> Point<T> { [u[0] * s, u[1] * s, u[2] * s] };
 
-    let sub = |u: Point<F32x8>, v: Point<F32x8>| -> Point<F32x8> { [u[0] - v[0], u[1] - v[1], u[2] - v[2]] };
-    let dot = |u: Point<F32x8>, v: Point<F32x8>| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    let scale = |u: Point<F32x8>, s: F32x8| -> Point<F32x8> { [u[0] * s, u[1] * s, u[2] * s] };
-
-    let r = F32x8::splat(step.thickness);
-    let zero = F32x8::splat(0.0);
+    let r = T::splat(step.thickness);
+    let zero = T::splat(0.0);
     let d = sub(xi, xj);
     let dist2 = dot(d, d);
     let rest = sub(rest_i, rest_j);
     let rest = dot(rest, rest).sqrt();
-    let keep = per_lane!(|l| rest.0[l].min(r.0[l]));
+    // min(rest, r), as f32::min for numbers.
+    let keep = T::if_greater(rest, r, r, rest);
     let dist = dist2.sqrt();
     let share = wi / (wi + wj);
     let n = [d[0] / dist, d[1] / dist, d[2] / dist];
@@ -87,13 +134,33 @@ fn pair_lanes(slots: &Slots, a: &[usize; LANES], b: &[usize; LANES], step: &Self
     let relative = sub(sub(xi, x0i), sub(xj, x0j));
     let tangential = sub(relative, scale(n, dot(relative, n)));
     let slide = dot(tangential, tangential).sqrt();
-    let bound = F32x8::splat(step.friction) * push;
+    let bound = T::splat(step.friction) * push;
     let kinetic = share * bound / slide;
-    let factor = F32x8::if_greater(slide, bound, kinetic, share);
+    let factor = T::if_greater(slide, bound, kinetic, share);
     let moved = sub(scale(n, push), scale(tangential, factor));
     // Nothing unless 0 < |d| < d_min (and |d| < r, which d_min ≤ r implies).
-    let touching = |v: F32x8| F32x8::if_greater(dist2, zero, F32x8::if_greater(keep, dist, v, zero), zero);
+    let touching = |v: T| T::if_greater(dist2, zero, T::if_greater(keep, dist, v, zero), zero);
     [touching(moved[0]), touching(moved[1]), touching(moved[2])]
+}
+
+/// [`pair_corrections`] in AVX registers.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use glam::Vec3;
+
+    use super::{SelfContactStep, Slots, corrections_in};
+    use crate::sim::fast::avx::Avx;
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn pair_corrections(
+        slots: &Slots,
+        own: &[u32],
+        other: &[u32],
+        out: &mut [Vec3],
+        step: &SelfContactStep,
+    ) {
+        corrections_in(slots, own, other, out, step, Avx::from, Avx::lanes);
+    }
 }
 
 #[cfg(test)]

@@ -111,19 +111,18 @@ fn relax_one<const XPBD: bool>(
 /// The AVX2 octet. The compiler does not find the transposes in a lane loop
 /// (it spilled every lane to the stack and ran no faster than one bar at a
 /// time), and split the kernel on [`F32x8`] here into 4-wide halves; so the
-/// octet runs the shared kernel on [`avx2::Avx`], eight lanes in one AVX
+/// octet runs the shared kernel on [`Avx`](crate::sim::fast::avx::Avx), eight lanes in one AVX
 /// register, with `std::arch` loads and transposes.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m128, __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps256_ps128,
-        _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_max_ps, _mm256_mul_ps, _mm256_set_m128,
-        _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+        __m128, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_set_m128, _mm256_shuffle_ps, _mm256_unpackhi_ps,
+        _mm256_unpacklo_ps,
     };
-    use std::ops::{Add, Div, Mul, Sub};
 
     use super::{BarColumns, Colouring, Particle, Sweep, relax_colours};
+    use crate::sim::fast::avx::Avx;
     use crate::sim::fast::kernel::{LANES, Point, Real, excess, relax_pair};
 
     /// [`super::relax_pass`] with eight bars at a time.
@@ -221,89 +220,6 @@ mod avx2 {
             let (low, high) = unsafe { (_mm256_castps256_ps128(row), _mm256_extractf128_ps::<1>(row)) };
             particles[index[l]] = bytemuck::cast(low);
             particles[index[l + 4]] = bytemuck::cast(high);
-        }
-    }
-
-    /// Eight `f32` lanes in one AVX register, for the shared kernel.
-    ///
-    /// Values of this type are made only inside this module's functions,
-    /// which run only in [`relax_octet`] (compiled with AVX2, called only
-    /// when the CPU has it): wherever an `Avx` exists, AVX is available,
-    /// which is what each `unsafe` below relies on. Every operation is the
-    /// IEEE operation of the `f32` path, lane by lane, so both give the same
-    /// bits.
-    #[derive(Clone, Copy)]
-    struct Avx(__m256);
-
-    impl Avx {
-        /// The first eight values of a column.
-        #[inline(always)]
-        fn load(column: &[f32]) -> Self {
-            let mut lanes = [0.0f32; LANES];
-            lanes.copy_from_slice(&column[..LANES]);
-            Avx::from(lanes)
-        }
-
-        #[inline(always)]
-        fn from(lanes: [f32; LANES]) -> Self {
-            Avx(bytemuck::cast(lanes))
-        }
-
-        #[inline(always)]
-        fn lanes(self) -> [f32; LANES] {
-            bytemuck::cast(self.0)
-        }
-    }
-
-    macro_rules! avx_op {
-        ($trait:ident, $method:ident, $intrinsic:ident) => {
-            impl $trait for Avx {
-                type Output = Avx;
-                #[inline(always)]
-                fn $method(self, rhs: Avx) -> Avx {
-                    // SAFETY: an `Avx` exists only where AVX is available.
-                    Avx(unsafe { $intrinsic(self.0, rhs.0) })
-                }
-            }
-        };
-    }
-    avx_op!(Add, add, _mm256_add_ps);
-    avx_op!(Sub, sub, _mm256_sub_ps);
-    avx_op!(Mul, mul, _mm256_mul_ps);
-    avx_op!(Div, div, _mm256_div_ps);
-
-    impl Real for Avx {
-        #[inline(always)]
-        fn splat(v: f32) -> Self {
-            // SAFETY: called only inside `relax_octet`, compiled with AVX2.
-            Avx(unsafe { _mm256_set1_ps(v) })
-        }
-        #[inline(always)]
-        fn sqrt(self) -> Self {
-            // SAFETY: an `Avx` exists only where AVX is available.
-            Avx(unsafe { _mm256_sqrt_ps(self.0) })
-        }
-        /// `maxps(a, b)` is `a > b ? a : b`, NaN and signed zeros included.
-        #[inline(always)]
-        fn max(self, other: Self) -> Self {
-            // SAFETY: an `Avx` exists only where AVX is available.
-            Avx(unsafe { _mm256_max_ps(self.0, other.0) })
-        }
-        /// Clears the sign bit, as `f32::abs`.
-        #[inline(always)]
-        fn abs(self) -> Self {
-            // SAFETY: an `Avx` exists only where AVX is available.
-            Avx(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
-        }
-        #[inline(always)]
-        fn if_moving(w: Self, then: Self, otherwise: Self) -> Self {
-            Self::if_greater(w, Avx::splat(0.0), then, otherwise)
-        }
-        /// `a > b` ordered: false for NaN, as in the `f32` path.
-        #[inline(always)]
-        fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
-            // SAFETY: an `Avx` exists only where AVX is available.
-            Avx(unsafe { _mm256_blendv_ps(otherwise.0, then.0, _mm256_cmp_ps::<_CMP_GT_OQ>(a.0, b.0)) })
         }
     }
 }
