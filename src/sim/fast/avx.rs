@@ -8,8 +8,9 @@
 #![allow(unsafe_code)]
 
 use std::arch::x86_64::{
-    __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_max_ps,
-    _mm256_mul_ps, _mm256_set1_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+    __m128, __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_div_ps,
+    _mm256_max_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+    _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
 use std::ops::{Add, Div, Mul, Sub};
 
@@ -44,6 +45,31 @@ impl Avx {
     #[inline(always)]
     pub(crate) fn lanes(self) -> [f32; LANES] {
         bytemuck::cast(self.0)
+    }
+}
+
+/// Rows `index[0..8]` of `rows` (x y z w each, one 16-byte load a row)
+/// transposed into lanes: [x, y, z, w]. Same contract as [`Avx`].
+#[inline(always)]
+pub(crate) fn gather_rows(rows: &[[f32; 4]], index: &[usize; LANES]) -> [Avx; 4] {
+    let p = |l: usize| -> __m128 { bytemuck::cast(rows[index[l]]) };
+    // SAFETY: by the type's contract, called only where AVX2 is enabled.
+    unsafe {
+        // Row l holds rows l and l + 4 (one per 128-bit half).
+        let r0 = _mm256_set_m128(p(4), p(0));
+        let r1 = _mm256_set_m128(p(5), p(1));
+        let r2 = _mm256_set_m128(p(6), p(2));
+        let r3 = _mm256_set_m128(p(7), p(3));
+        // Per half: t0 = x0 x1 y0 y1, t1 = z0 z1 w0 w1, t2 = x2 x3 y2 y3, t3 = z2 z3 w2 w3.
+        let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+        let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+        // 0x44 takes elements 0, 1 of each source, 0xEE elements 2, 3.
+        [
+            Avx(_mm256_shuffle_ps::<0x44>(t0, t2)),
+            Avx(_mm256_shuffle_ps::<0xEE>(t0, t2)),
+            Avx(_mm256_shuffle_ps::<0x44>(t1, t3)),
+            Avx(_mm256_shuffle_ps::<0xEE>(t1, t3)),
+        ]
     }
 }
 

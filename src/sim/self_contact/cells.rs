@@ -28,9 +28,14 @@
 //!   cells away along some axis, and its particles more than 3 · 2r from
 //!   x: they fail the distance.
 //!
-//! The order a query returns its candidates in — the 8 cells in a fixed
-//! order, then each cell's particles by index — does not depend on the
-//! hash, the bucket count or the thread count.
+//! The two cells along x are c and c + 1 for some c; when they share a
+//! block (c mod 4 ≠ 3) their buckets are h and h + 1, whose slots are one
+//! run, tested as one range: 4 runs a query instead of 8, most of the time.
+//!
+//! The order a query returns its candidates in — the 4 pairs of cells
+//! along x in a fixed order, each pair's lower cell first, each cell's
+//! particles by index — does not depend on the hash, the bucket count or
+//! the thread count.
 
 use glam::{IVec3, Vec3};
 
@@ -130,11 +135,6 @@ impl Cells {
         }
     }
 
-    /// The positions in slot order, per axis (padded).
-    pub(super) fn axes(&self) -> &[Vec<f32>; 3] {
-        &self.axes
-    }
-
     /// The position copied into `slot`.
     #[inline(always)]
     pub(super) fn position(&self, slot: usize) -> Vec3 {
@@ -152,23 +152,38 @@ impl Cells {
         let toward = (scaled - scaled.floor()).cmplt(Vec3::splat(0.5));
         let side = IVec3::select(toward, IVec3::splat(-1), IVec3::ONE);
         let r2 = radius * radius;
+        // Along x the two cells are the lower one and the next: within a
+        // block their buckets are h and h + 1, one run of slots, tested as
+        // one range.
+        let low_x = centre.x + side.x.min(0);
+        let within = (1 << BLOCK_BITS) - 1;
         for dz in [0, side.z] {
             for dy in [0, side.y] {
-                for dx in [0, side.x] {
-                    let cell = centre + IVec3::new(dx, dy, dz);
-                    let h = bucket(cell, self.bits);
-                    let (from, to) = (self.start[h] as usize, self.start[h + 1] as usize);
-                    let mut first = from;
-                    while first < to {
-                        let mut hits = self.near_lanes(first, to, slot, p, r2);
-                        while hits != 0 {
-                            near.push((first + hits.trailing_zeros() as usize) as u32);
-                            hits &= hits - 1;
-                        }
-                        first += LANES;
-                    }
+                let low = IVec3::new(low_x, centre.y + dy, centre.z + dz);
+                let h = bucket(low, self.bits);
+                if low.x & within != within {
+                    self.push_run(h, h + 1, slot, p, r2, near);
+                } else {
+                    self.push_run(h, h, slot, p, r2, near);
+                    let next = bucket(low + IVec3::X, self.bits);
+                    self.push_run(next, next, slot, p, r2, near);
                 }
             }
+        }
+    }
+
+    /// Appends the slots of buckets `first..=last` near `p` (not `own`).
+    #[inline(always)]
+    fn push_run(&self, first: usize, last: usize, own: usize, p: Vec3, r2: f32, near: &mut Vec<u32>) {
+        let (from, to) = (self.start[first] as usize, self.start[last + 1] as usize);
+        let mut lane = from;
+        while lane < to {
+            let mut hits = self.near_lanes(lane, to, own, p, r2);
+            while hits != 0 {
+                near.push((lane + hits.trailing_zeros() as usize) as u32);
+                hits &= hits - 1;
+            }
+            lane += LANES;
         }
     }
 

@@ -63,11 +63,12 @@ pub const PARALLEL_PARTICLES: usize = 8192;
 pub struct SelfContact {
     rest: Vec<Vec3>,
     cells: Cells,
-    /// Per slot of `cells` (the particles sorted by cell): the substep-start
-    /// position, the inverse mass, the rest position and the correction.
-    slot_start: Vec<Vec3>,
-    slot_weight: Vec<f32>,
-    slot_rest: Vec<Vec3>,
+    /// Per slot of `cells` (the particles sorted by cell), as the pairs
+    /// read them: position and inverse mass, substep-start position, rest
+    /// position (`[x, y, z, w or 0]`); and the correction.
+    slot_point: Vec<[f32; 4]>,
+    slot_start: Vec<[f32; 4]>,
+    slot_rest: Vec<[f32; 4]>,
     correction: Vec<Vec3>,
     /// Positions, substep-start positions and weights in scene order, for
     /// solvers whose own layout is not scene order.
@@ -100,19 +101,14 @@ fn corrections_body(phase: &SelfContact, first: usize, out: &mut [Vec3], step: &
     let (mut own, mut other) = (Vec::new(), Vec::new());
     let mut ends = Vec::with_capacity(out.len());
     for slot in first..first + out.len() {
-        if phase.slot_weight[slot] > 0.0 {
+        if phase.slot_point[slot][3] > 0.0 {
             phase.cells.push_near(slot, step.thickness, &mut other);
             own.resize(other.len(), slot as u32);
         }
         ends.push(other.len());
     }
     let mut moved = vec![Vec3::ZERO; other.len()];
-    let slots = Slots {
-        position: phase.cells.axes(),
-        start: &phase.slot_start,
-        rest: &phase.slot_rest,
-        weight: &phase.slot_weight,
-    };
+    let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest };
     pair_corrections(&slots, &own, &other, &mut moved, step);
     // Each owner sums its pairs in order, from zero.
     let mut begin = 0;
@@ -150,12 +146,13 @@ impl SelfContact {
         }
         self.cells.build(x, 2.0 * r);
         let order = &self.cells.order;
+        let row = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+        self.slot_point.clear();
+        self.slot_point.extend(order.iter().map(|&i| row(x[i as usize], w[i as usize])));
         self.slot_start.clear();
-        self.slot_start.extend(order.iter().map(|&i| x0[i as usize]));
-        self.slot_weight.clear();
-        self.slot_weight.extend(order.iter().map(|&i| w[i as usize]));
+        self.slot_start.extend(order.iter().map(|&i| row(x0[i as usize], 0.0)));
         self.slot_rest.clear();
-        self.slot_rest.extend(order.iter().map(|&i| self.rest[i as usize]));
+        self.slot_rest.extend(order.iter().map(|&i| row(self.rest[i as usize], 0.0)));
         let mut correction = std::mem::take(&mut self.correction);
         correction.clear();
         correction.resize(n, Vec3::ZERO);

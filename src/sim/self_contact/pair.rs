@@ -23,16 +23,15 @@ use super::SelfContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, per_lane};
 use crate::sim::fast::simd::{self, SimdLevel};
 
-/// What the phase reads of each slot of the sorted table.
+/// What the phase reads of each slot of the sorted table, one 16-byte row
+/// each (one load a row in the AVX2 path).
 pub(super) struct Slots<'a> {
-    /// x, per axis.
-    pub(super) position: &'a [Vec<f32>; 3],
-    /// x0.
-    pub(super) start: &'a [Vec3],
-    /// X.
-    pub(super) rest: &'a [Vec3],
-    /// w.
-    pub(super) weight: &'a [f32],
+    /// x and w: `[x, y, z, w]`.
+    pub(super) point: &'a [[f32; 4]],
+    /// x0: `[x, y, z, 0]`.
+    pub(super) start: &'a [[f32; 4]],
+    /// X: `[x, y, z, 0]`.
+    pub(super) rest: &'a [[f32; 4]],
 }
 
 /// What slot `other[k]` does to slot `own[k]`, for each k, into `out`
@@ -46,58 +45,65 @@ pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: &
         unsafe { avx2::pair_corrections(slots, own, other, out, step) };
         return;
     }
-    corrections_in(slots, own, other, out, step, F32x8, |v: F32x8| v.0);
+    corrections_in::<F32x8>(slots, own, other, out, step);
 }
 
-/// [`pair_corrections`] on lanes of type `T`, made from eight values by
-/// `lanes` and read back by `values`.
+/// Lanes the pairs can be computed on: eight rows of a slot table
+/// transposed in, lanes read back out.
+trait Rows: Real {
+    /// Rows `s[0..8]` as four lanes, [x, y, z, w].
+    fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4];
+    /// The eight values.
+    fn values(self) -> [f32; LANES];
+}
+
+impl Rows for F32x8 {
+    /// `per_lane!` writes the eight loads out: `std::array::from_fn` was
+    /// left a call per lane.
+    #[inline(always)]
+    fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4] {
+        [
+            per_lane!(|l| rows[s[l]][0]),
+            per_lane!(|l| rows[s[l]][1]),
+            per_lane!(|l| rows[s[l]][2]),
+            per_lane!(|l| rows[s[l]][3]),
+        ]
+    }
+    #[inline(always)]
+    fn values(self) -> [f32; LANES] {
+        self.0
+    }
+}
+
+/// [`pair_corrections`] on lanes of type `T`.
 #[inline(always)]
-fn corrections_in<T: Real>(
-    slots: &Slots,
-    own: &[u32],
-    other: &[u32],
-    out: &mut [Vec3],
-    step: &SelfContactStep,
-    lanes: impl Fn([f32; LANES]) -> T,
-    values: impl Fn(T) -> [f32; LANES],
-) {
-    let [px, py, pz] = slots.position;
-    let axis = |v: &[f32], s: &[usize; LANES]| lanes(pick(v, s));
-    let vec = |v: &[Vec3], s: &[usize; LANES]| -> Point<T> { pick_points(v, s).map(&lanes) };
+fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: &mut [Vec3], step: &SelfContactStep) {
+    let point = |rows: &[[f32; 4]], s: &[usize; LANES]| -> Point<T> {
+        let [x, y, z, _] = T::gather(rows, s);
+        [x, y, z]
+    };
     for ((own, other), out) in own.chunks(LANES).zip(other.chunks(LANES)).zip(out.chunks_mut(LANES)) {
         // Lanes past the end pair slot 0 with itself: d = 0, nothing.
         let a: [usize; LANES] = std::array::from_fn(|l| own.get(l).map_or(0, |&s| s as usize));
         let b: [usize; LANES] = std::array::from_fn(|l| other.get(l).map_or(0, |&s| s as usize));
+        let [xi0, xi1, xi2, wi] = T::gather(slots.point, &a);
+        let [xj0, xj1, xj2, wj] = T::gather(slots.point, &b);
         let moved = rule(
-            [axis(px, &a), axis(py, &a), axis(pz, &a)],
-            [axis(px, &b), axis(py, &b), axis(pz, &b)],
-            vec(slots.start, &a),
-            vec(slots.start, &b),
-            vec(slots.rest, &a),
-            vec(slots.rest, &b),
-            axis(slots.weight, &a),
-            axis(slots.weight, &b),
+            [xi0, xi1, xi2],
+            [xj0, xj1, xj2],
+            point(slots.start, &a),
+            point(slots.start, &b),
+            point(slots.rest, &a),
+            point(slots.rest, &b),
+            wi,
+            wj,
             step,
         );
-        let [mx, my, mz] = moved.map(&values);
+        let [mx, my, mz] = moved.map(T::values);
         for (l, out) in out.iter_mut().enumerate() {
             *out = Vec3::new(mx[l], my[l], mz[l]);
         }
     }
-}
-
-/// `v[s[l]]` for each lane l. `per_lane!` writes the eight loads out, and
-/// these are functions, not closures: `std::array::from_fn` and nested
-/// closures were left as calls in the AVX2 path.
-#[inline(always)]
-fn pick(v: &[f32], s: &[usize; LANES]) -> [f32; LANES] {
-    per_lane!(|l| v[s[l]]).0
-}
-
-/// The coordinates of the points `v[s[l]]`, one array per axis.
-#[inline(always)]
-fn pick_points(v: &[Vec3], s: &[usize; LANES]) -> [[f32; LANES]; 3] {
-    [per_lane!(|l| v[s[l]].x).0, per_lane!(|l| v[s[l]].y).0, per_lane!(|l| v[s[l]].z).0]
 }
 
 /// The rule of the module docs for eight pairs in lanes: i's position,
@@ -148,8 +154,20 @@ fn rule<T: Real>(
 mod avx2 {
     use glam::Vec3;
 
-    use super::{SelfContactStep, Slots, corrections_in};
-    use crate::sim::fast::avx::Avx;
+    use super::{Rows, SelfContactStep, Slots, corrections_in};
+    use crate::sim::fast::avx::{Avx, gather_rows};
+    use crate::sim::fast::kernel::LANES;
+
+    impl Rows for Avx {
+        #[inline(always)]
+        fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4] {
+            gather_rows(rows, s)
+        }
+        #[inline(always)]
+        fn values(self) -> [f32; LANES] {
+            self.lanes()
+        }
+    }
 
     #[target_feature(enable = "avx2,fma")]
     pub(super) fn pair_corrections(
@@ -159,7 +177,7 @@ mod avx2 {
         out: &mut [Vec3],
         step: &SelfContactStep,
     ) {
-        corrections_in(slots, own, other, out, step, Avx::from, Avx::lanes);
+        corrections_in::<Avx>(slots, own, other, out, step);
     }
 }
 
@@ -242,8 +260,11 @@ mod tests {
             let x0j = xj + Vec3::new(random(), random(), random()) * 0.004;
             add(xj, x0j, Vec3::new(random(), random(), random()) * 0.02, 1.0);
         }
-        let axes: [Vec<f32>; 3] = std::array::from_fn(|k| x.iter().map(|v| v[k]).collect());
-        let slots = Slots { position: &axes, start: &x0, rest: &rest, weight: &w };
+        let row = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
+        let point: Vec<[f32; 4]> = x.iter().zip(&w).map(|(&v, &w)| row(v, w)).collect();
+        let start: Vec<[f32; 4]> = x0.iter().map(|&v| row(v, 0.0)).collect();
+        let rests: Vec<[f32; 4]> = rest.iter().map(|&v| row(v, 0.0)).collect();
+        let slots = Slots { point: &point, start: &start, rest: &rests };
         let other: Vec<u32> = (1..x.len() as u32).collect();
         let own = vec![0u32; other.len()];
         let mut moved = vec![Vec3::NAN; other.len()];

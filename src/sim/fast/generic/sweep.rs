@@ -117,12 +117,11 @@ fn relax_one<const XPBD: bool>(
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m128, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_set_m128, _mm256_shuffle_ps, _mm256_unpackhi_ps,
-        _mm256_unpacklo_ps,
+        _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
     };
 
     use super::{BarColumns, Colouring, Particle, Sweep, relax_colours};
-    use crate::sim::fast::avx::Avx;
+    use crate::sim::fast::avx::{Avx, gather_rows};
     use crate::sim::fast::kernel::{LANES, Point, Real, excess, relax_pair};
 
     /// [`super::relax_pass`] with eight bars at a time.
@@ -178,24 +177,8 @@ mod avx2 {
     /// weights.
     #[inline(always)]
     fn gather(particles: &[Particle], index: &[usize; LANES]) -> (Point<Avx>, Avx) {
-        let p = |l: usize| -> __m128 { bytemuck::cast(particles[index[l]]) };
-        // SAFETY: called only from `relax_octet`, compiled with AVX2.
-        unsafe {
-            // Row l holds particles l and l + 4 (one per 128-bit half).
-            let r0 = _mm256_set_m128(p(4), p(0));
-            let r1 = _mm256_set_m128(p(5), p(1));
-            let r2 = _mm256_set_m128(p(6), p(2));
-            let r3 = _mm256_set_m128(p(7), p(3));
-            // Per half: t0 = x0 x1 y0 y1, t1 = z0 z1 w0 w1, t2 = x2 x3 y2 y3, t3 = z2 z3 w2 w3.
-            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
-            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
-            // 0x44 takes elements 0, 1 of each source, 0xEE elements 2, 3.
-            let x = _mm256_shuffle_ps::<0x44>(t0, t2);
-            let y = _mm256_shuffle_ps::<0xEE>(t0, t2);
-            let z = _mm256_shuffle_ps::<0x44>(t1, t3);
-            let w = _mm256_shuffle_ps::<0xEE>(t1, t3);
-            ([Avx(x), Avx(y), Avx(z)], Avx(w))
-        }
+        let [x, y, z, w] = gather_rows(bytemuck::cast_slice(particles), index);
+        ([x, y, z], w)
     }
 
     /// The inverse of [`gather`]: particle `index[l]` takes lane l.
