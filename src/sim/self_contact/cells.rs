@@ -38,6 +38,7 @@
 //! the thread count.
 
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
 use crate::sim::fast::kernel::LANES;
 use crate::sim::fast::simd::dispatch;
@@ -86,31 +87,60 @@ dispatch! {
     /// Each point's bucket, for cells of side 1/`inverse_side` and
     /// 2^`bits` buckets (compiled for the SIMD level: `floor` is one
     /// instruction there and a library call in the baseline).
-    fn buckets_of(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut Vec<u32>)
+    fn buckets_of(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut [u32])
         = buckets_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn buckets_body(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut Vec<u32>) {
-    buckets.clear();
-    buckets.extend(x.iter().map(|&p| bucket(cell_of(p, inverse_side), bits) as u32));
+fn buckets_body(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut [u32]) {
+    for (h, &p) in buckets.iter_mut().zip(x) {
+        *h = bucket(cell_of(p, inverse_side), bits) as u32;
+    }
+}
+
+/// Particles a task of the thread pool takes in the per-particle passes.
+const CHUNK: usize = 4096;
+
+/// `out[k] = pick(order[k])` for every slot k, on the thread pool with
+/// `parallel`.
+pub(super) fn gather<T: Send>(
+    out: &mut Vec<T>,
+    order: &[u32],
+    parallel: bool,
+    pick: impl Fn(usize) -> T + Sync + Send,
+) {
+    out.clear();
+    if parallel {
+        out.par_extend(order.par_iter().map(|&i| pick(i as usize)));
+    } else {
+        out.extend(order.iter().map(|&i| pick(i as usize)));
+    }
 }
 
 impl Cells {
     /// Sorts the particles at `x` into cells of side `side` (metres, > 0).
-    pub(super) fn build(&mut self, x: &[Vec3], side: f32) {
+    /// With `parallel`, the per-particle passes run on the thread pool (the
+    /// counting sort itself does not; the result is the same).
+    pub(super) fn build(&mut self, x: &[Vec3], side: f32, parallel: bool) {
         // 2^b ≥ 2n buckets, and at least two blocks' worth.
         let bits = (2 * x.len().max(1)).next_power_of_two().trailing_zeros().max(3 * BLOCK_BITS + 1);
-        self.build_with(x, side, bits);
+        self.build_with(x, side, bits, parallel);
     }
 
     /// [`Self::build`] into 2^`bits` buckets (`bits` in 7..=32).
-    fn build_with(&mut self, x: &[Vec3], side: f32, bits: u32) {
+    fn build_with(&mut self, x: &[Vec3], side: f32, bits: u32, parallel: bool) {
         let n = x.len();
         self.inverse_side = 1.0 / side;
         self.bits = bits;
         let size = 1usize << self.bits;
-        buckets_of(x, self.inverse_side, self.bits, &mut self.buckets);
+        self.buckets.resize(n, 0);
+        let (inverse_side, bits) = (self.inverse_side, self.bits);
+        let keys = |(out, x): (&mut [u32], &[Vec3])| buckets_of(x, inverse_side, bits, out);
+        if parallel {
+            self.buckets.par_chunks_mut(CHUNK).zip(x.par_chunks(CHUNK)).for_each(keys);
+        } else {
+            self.buckets.chunks_mut(CHUNK).zip(x.chunks(CHUNK)).for_each(keys);
+        }
         self.start.clear();
         self.start.resize(size + 1, 0);
         for &h in &self.buckets {
@@ -129,8 +159,7 @@ impl Cells {
             *next += 1;
         }
         for (axis, values) in self.axes.iter_mut().enumerate() {
-            values.clear();
-            values.extend(self.order.iter().map(|&i| x[i as usize][axis]));
+            gather(values, &self.order, parallel, |i| x[i][axis]);
             values.resize(n + LANES, f32::INFINITY);
         }
     }
@@ -308,8 +337,8 @@ mod tests {
         for bits in [None, Some(7)] {
             let mut cells = Cells::default();
             match bits {
-                None => cells.build(&x, 2.0 * r),
-                Some(bits) => cells.build_with(&x, 2.0 * r, bits),
+                None => cells.build(&x, 2.0 * r, false),
+                Some(bits) => cells.build_with(&x, 2.0 * r, bits, false),
             }
             let mut found = Vec::new();
             for slot in 0..x.len() {

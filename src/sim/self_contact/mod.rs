@@ -51,7 +51,7 @@ use crate::sim::fast::simd::dispatch;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use cells::Cells;
+use cells::{Cells, gather};
 use pair::{Slots, pair_corrections};
 
 /// Cloths of at least this many particles find their corrections on the
@@ -144,21 +144,20 @@ impl SelfContact {
                 x[i] = x0[i] + d * (limit / len);
             }
         }
-        self.cells.build(x, 2.0 * r);
+        let parallel = step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
+        self.cells.build(x, 2.0 * r, parallel);
         let order = &self.cells.order;
         let row = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-        self.slot_point.clear();
-        self.slot_point.extend(order.iter().map(|&i| row(x[i as usize], w[i as usize])));
-        self.slot_start.clear();
-        self.slot_start.extend(order.iter().map(|&i| row(x0[i as usize], 0.0)));
-        self.slot_rest.clear();
-        self.slot_rest.extend(order.iter().map(|&i| row(self.rest[i as usize], 0.0)));
+        let (x_now, rest): (&[Vec3], &[Vec3]) = (x, &self.rest);
+        gather(&mut self.slot_point, order, parallel, |i| row(x_now[i], w[i]));
+        gather(&mut self.slot_start, order, parallel, |i| row(x0[i], 0.0));
+        gather(&mut self.slot_rest, order, parallel, |i| row(rest[i], 0.0));
         let mut correction = std::mem::take(&mut self.correction);
         correction.clear();
         correction.resize(n, Vec3::ZERO);
         let this = &*self;
         let find = |(c, out): (usize, &mut [Vec3])| corrections(this, c * CHUNK, out, step);
-        if step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1 {
+        if parallel {
             correction.par_chunks_mut(CHUNK).enumerate().for_each(find);
         } else {
             correction.chunks_mut(CHUNK).enumerate().for_each(find);
