@@ -92,8 +92,9 @@ impl Solver for GridLayout {
     }
 
     /// Tile by tile: the colliders near the tile's box of start (x_pred − d)
-    /// and end positions, then each particle of non-zero weight resolved by
-    /// [`ContactStep::resolve`].
+    /// and end positions, then eight particles at a time, those of non-zero
+    /// weight the lane filter keeps resolved by `ContactStep::resolve_lanes`
+    /// (the bits of `ContactStep::resolve`).
     fn collide(&mut self, contact: &ContactStep) {
         let parallel = self.parallel();
         for_each_tile(&mut self.tiles, parallel, |tile| {
@@ -209,8 +210,14 @@ impl Solver for GridLayout {
     }
 }
 
-/// The collide phase on one tile.
-fn collide_tile(tile: &mut Tile, contact: &ContactStep) {
+dispatch! {
+    /// The collide phase on one tile (its lanes compiled for the SIMD level).
+    fn collide_tile(tile: &mut Tile, contact: &ContactStep)
+        = collide_tile_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn collide_tile_body(tile: &mut Tile, contact: &ContactStep) {
     let Tile { position, displacement, predicted, weight, .. } = tile;
     let lane = |p: &Slot, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
     // The tile's box of start and end positions of moving particles.
@@ -238,14 +245,8 @@ fn collide_tile(tile: &mut Tile, contact: &ContactStep) {
         if touching == 0 {
             continue;
         }
-        for l in 0..LANES {
-            if touching & (1 << l) != 0 && w.0[l] > 0.0 {
-                let out = contact.resolve(&near, lane(&x0, l), lane(x, l));
-                for k in 0..3 {
-                    x[k].0[l] = out[k];
-                }
-            }
-        }
+        let moving = (0..LANES).fold(0u8, |m, l| m | (u8::from(w.0[l] > 0.0) << l));
+        contact.resolve_lanes(&near, touching & moving, &x0, x);
     }
 }
 

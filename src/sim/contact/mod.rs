@@ -36,17 +36,25 @@
 //! **Broad phase.** Each collider's box over the substep (both poses,
 //! grown by r) is kept; a particle, or a solver's tile of particles, whose
 //! box of start and end positions misses it skips that collider. A plane
-//! is skipped when the whole box is farther than r on its free side. The
-//! grid solver tests eight particles at once (`ContactStep::may_touch_lanes`),
-//! and for a sphere that stands still also clears the particles in its box
-//! whose path stays clear of the ball itself (a draped cloth hangs around
-//! the ball inside its box).
+//! is skipped when the whole box is farther than r on its free side.
+//!
+//! **A sphere that stands still** is handled around its centre in world
+//! axes, ℓ = x − c, its rotation left out (a ball looks the same turned; for
+//! an unrotated ball these are the numbers of P⁻¹ and P).
+//!
+//! **Eight at a time** (`contact/lanes.rs`, for the grid solver's lanes):
+//! the broad phase lane by lane, which for a still sphere also clears the
+//! particles in its box whose path stays clear of the ball (a draped cloth
+//! hangs around the ball inside its box); then steps 2 and 3 against a
+//! still sphere in lanes, with the one-particle code's bits. Everything else
+//! goes one particle at a time.
 
 use glam::Vec3;
 
 use super::collider::{Collider, Pose, Shape};
-use super::fast::kernel::{F32x8, LANES, Point, Real};
 use super::mesh::bounds;
+
+mod lanes;
 
 /// Where one collider is during one substep.
 #[derive(Clone, Debug)]
@@ -61,12 +69,12 @@ pub struct PlacedCollider<'a> {
     pub friction: f32,
     /// The world box it sweeps in the substep, grown by the thickness
     /// (`None` for a plane).
-    bounds: Option<(Vec3, Vec3)>,
+    pub(super) bounds: Option<(Vec3, Vec3)>,
     /// A plane's world normal and a point on it, at the start and the end.
-    plane: Option<[(Vec3, Vec3); 2]>,
+    pub(super) plane: Option<[(Vec3, Vec3); 2]>,
     /// A sphere that stands still over the substep: its world centre and
     /// radius.
-    ball: Option<(Vec3, f32)>,
+    pub(super) ball: Option<(Vec3, f32)>,
 }
 
 /// Everything the collide phase of one substep needs.
@@ -134,48 +142,6 @@ impl<'a> ContactStep<'a> {
         }
     }
 
-    /// Which of eight particles, moving from `x0` to `x` (lanes), collider
-    /// `k` may move, as a bit mask (bit l: lane l). Conservative: a clear
-    /// bit is a particle that [`Self::resolve`] leaves exactly where it is.
-    ///
-    /// [`Self::may_touch`] on each lane's box of `x0` and `x` (the test
-    /// `resolve` makes); and for a sphere that stands still, the particles
-    /// in its box but clear of it: farther than r from the surface and
-    /// farther from it than the path is long (so neither the ray cast nor
-    /// the push can act), each by a margin of 10⁻⁴ of the distance to the
-    /// centre, far above the rounding of the collider frame's rotation (a
-    /// few ulps) that `resolve` works in.
-    #[inline(always)]
-    pub(crate) fn may_touch_lanes(&self, k: usize, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        let lane = |p: &Point<F32x8>, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
-        let boxed = (0..LANES).fold(0u8, |m, l| {
-            let (a, b) = (lane(x0, l), lane(x, l));
-            m | (u8::from(self.may_touch(k, a.min(b), a.max(b))) << l)
-        });
-        match self.colliders[k].ball {
-            Some((centre, radius)) if boxed != 0 => boxed & !self.clear_of_ball(centre, radius, x0, x),
-            _ => boxed,
-        }
-    }
-
-    /// The lanes whose path `x0 → x` stays clear of a still sphere (see
-    /// [`Self::may_touch_lanes`]), as a bit mask.
-    #[inline(always)]
-    fn clear_of_ball(&self, centre: Vec3, radius: f32, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        let centre = centre.to_array();
-        let offset: Point<F32x8> = std::array::from_fn(|i| x[i] - F32x8::splat(centre[i]));
-        let path: Point<F32x8> = std::array::from_fn(|i| x[i] - x0[i]);
-        let length = |v: &Point<F32x8>| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let (distance, path) = (length(&offset), length(&path));
-        (0..LANES).fold(0u8, |m, l| {
-            let (d, p) = (distance.0[l], path.0[l]);
-            let margin = 1e-4 * d;
-            let gap = d - radius;
-            let clear = gap - self.thickness > margin && gap - p > margin;
-            m | (u8::from(clear) << l)
-        })
-    }
-
     /// Every collider's index (for a caller with no box to test).
     pub fn all(&self) -> Vec<usize> {
         (0..self.colliders.len()).collect()
@@ -200,11 +166,17 @@ impl<'a> ContactStep<'a> {
         x
     }
 
-    fn resolve_one(&self, k: usize, x0: Vec3, x: Vec3) -> Vec3 {
+    pub(super) fn resolve_one(&self, k: usize, x0: Vec3, x: Vec3) -> Vec3 {
         let c = &self.colliders[k];
         let r = self.thickness;
-        let l0 = c.start.inverse_apply(x0);
-        let mut l = c.end.inverse_apply(x);
+        // A still sphere's frame: its centre in world axes. A ball looks the
+        // same turned, so its rotation is left out (for an unrotated ball
+        // these are the numbers of P⁻¹ and P), and the lanes can follow
+        // (`lanes.rs`).
+        let (l0, mut l) = match c.ball {
+            Some((centre, _)) => (x0 - centre, x - centre),
+            None => (c.start.inverse_apply(x0), c.end.inverse_apply(x)),
+        };
         let mut depth = 0.0f32;
         let mut normal = None;
         let mut near = c.shape.proximity(l);
@@ -245,7 +217,10 @@ impl<'a> ContactStep<'a> {
         } else if slide > 0.0 {
             l -= tangential * (bound / slide);
         }
-        c.end.apply(l)
+        match c.ball {
+            Some((centre, _)) => l + centre,
+            None => c.end.apply(l),
+        }
     }
 }
 
@@ -294,64 +269,6 @@ mod tests {
         let x = step.resolve(&[0], Vec3::ZERO, Vec3::new(0.0, -0.001, 0.0));
         // Relative motion 0.01 > μD = 0.0005: slides, but is dragged 0.0005 along.
         assert!((x.x - 0.0005).abs() < 1e-6 && x.y.abs() < 1e-6, "{x}");
-    }
-
-    #[test]
-    fn the_lanes_filter_clears_only_particles_resolve_leaves_alone() {
-        // A still sphere (r 0.5 at (0, 0.6, 0)), a tilted ground, and a
-        // sphere moving over the substep; 4000 particles on short and long
-        // paths around them, eight at a time. A clear lane must come out of
-        // `resolve` bit for bit where it went in; the box part of the filter
-        // must agree with `may_touch` exactly; and the sphere test must clear
-        // many particles inside the sphere's box (or it proves nothing).
-        let tilted = Pose { rotation: glam::Quat::from_rotation_z(0.2), translation: Vec3::new(0.0, -0.1, 0.0) };
-        let mut moving = Collider::fixed(Shape::Sphere { radius: 0.3 }, Pose::default());
-        moving.pose.translation = Vec3::new(0.9, 0.2, 0.0);
-        moving.motion =
-            crate::sim::collider::Motion::Moving { velocity: Vec3::new(0.0, 1.0, 0.0), angular_velocity: Vec3::ZERO };
-        let colliders = vec![
-            Collider::fixed(
-                Shape::Sphere { radius: 0.5 },
-                Pose { translation: Vec3::new(0.0, 0.6, 0.0), ..Pose::default() },
-            ),
-            Collider::fixed(Shape::Plane { normal: Vec3::Y }, tilted),
-            moving,
-        ];
-        let step = ContactStep::new(&colliders, 0.01, 0.3, 0.0, 0.01);
-        let all = step.all();
-        let mut state = 7u32;
-        let mut random = || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
-        };
-        let (mut cleared_in_box, mut moved) = (0, 0);
-        for group in 0..500 {
-            let reach = if group % 2 == 0 { 0.02 } else { 0.4 };
-            let pairs: [(Vec3, Vec3); LANES] = std::array::from_fn(|_| {
-                let x = Vec3::new(random() * 2.4, 0.6 + random() * 2.4, random() * 2.4);
-                (x + Vec3::new(random(), random(), random()) * reach, x)
-            });
-            let lanes = |pick: fn(&(Vec3, Vec3)) -> Vec3| -> Point<F32x8> {
-                std::array::from_fn(|i| F32x8(std::array::from_fn(|l| pick(&pairs[l])[i])))
-            };
-            let (x0, x) = (lanes(|p| p.0), lanes(|p| p.1));
-            let masks: Vec<u8> = (0..colliders.len()).map(|k| step.may_touch_lanes(k, &x0, &x)).collect();
-            for (l, &(a, b)) in pairs.iter().enumerate() {
-                let out = step.resolve(&all, a, b);
-                moved += usize::from(out != b);
-                if masks.iter().all(|m| m & (1 << l) == 0) {
-                    assert_eq!(out.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits), "{a} -> {b}");
-                }
-                for k in [1, 2] {
-                    assert_eq!(masks[k] & (1 << l) != 0, step.may_touch(k, a.min(b), a.max(b)), "collider {k}");
-                }
-                let boxed = step.may_touch(0, a.min(b), a.max(b));
-                cleared_in_box += usize::from(boxed && masks[0] & (1 << l) == 0);
-                assert!(boxed || masks[0] & (1 << l) == 0);
-            }
-        }
-        assert!(cleared_in_box > 50, "{cleared_in_box} cleared inside the still sphere's box");
-        assert!(moved > 200, "{moved} particles moved by contact");
     }
 
     #[test]

@@ -1,0 +1,284 @@
+//! The collide phase eight particles at a time, for the grid solver's lanes.
+//!
+//! - **Filter** (`may_touch_lanes`): which of eight particles a collider may
+//!   move: the broad phase's box test lane by lane, and for a sphere that
+//!   stands still, the particles in its box whose path stays clear of the
+//!   ball itself (a draped cloth hangs around the ball inside its box).
+//! - **Narrow phase** (`resolve_lanes`): [`ContactStep::resolve`] for the
+//!   lanes the filter kept, collider by collider in the same order. A still
+//!   sphere, handled around its centre in world axes (mod.rs), runs steps 2
+//!   and 3 of the module docs in lanes: every lane does the operations of
+//!   the one-particle code in its order, so it gets the same bits. A lane
+//!   whose path is at least as long as its distance to the ball may have
+//!   entered it (step 1, a ray cast) and goes one particle at a time, as do
+//!   all lanes of other colliders.
+
+use glam::Vec3;
+
+use super::ContactStep;
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real};
+
+/// Lane l of eight points.
+#[inline(always)]
+fn lane(p: &Point<F32x8>, l: usize) -> Vec3 {
+    Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l])
+}
+
+impl ContactStep<'_> {
+    /// Which of eight particles, moving from `x0` to `x` (lanes), collider
+    /// `k` may move, as a bit mask (bit l: lane l). Conservative: a clear
+    /// bit is a particle that [`Self::resolve`] leaves exactly where it is.
+    ///
+    /// [`Self::may_touch`] on each lane's box of `x0` and `x` (the test
+    /// `resolve` makes); and for a sphere that stands still, the particles
+    /// in its box but clear of it: farther than r from the surface and
+    /// farther from it than the path is long (so neither the ray cast nor
+    /// the push can act), each by a margin of 10⁻⁴ of the distance to the
+    /// centre, far above the rounding (a few ulps) of the same distances as
+    /// `resolve` computes them.
+    #[inline(always)]
+    pub(crate) fn may_touch_lanes(&self, k: usize, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
+        let boxed = (0..LANES).fold(0u8, |m, l| {
+            let (a, b) = (lane(x0, l), lane(x, l));
+            m | (u8::from(self.may_touch(k, a.min(b), a.max(b))) << l)
+        });
+        match self.colliders[k].ball {
+            Some((centre, radius)) if boxed != 0 => boxed & !self.clear_of_ball(centre, radius, x0, x),
+            _ => boxed,
+        }
+    }
+
+    /// The lanes whose path `x0 → x` stays clear of a still sphere (see
+    /// [`Self::may_touch_lanes`]), as a bit mask.
+    #[inline(always)]
+    fn clear_of_ball(&self, centre: Vec3, radius: f32, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
+        let centre = centre.to_array();
+        let offset: Point<F32x8> = std::array::from_fn(|i| x[i] - F32x8::splat(centre[i]));
+        let path: Point<F32x8> = std::array::from_fn(|i| x[i] - x0[i]);
+        let length = |v: &Point<F32x8>| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let (distance, path) = (length(&offset), length(&path));
+        (0..LANES).fold(0u8, |m, l| {
+            let (d, p) = (distance.0[l], path.0[l]);
+            let margin = 1e-4 * d;
+            let gap = d - radius;
+            let clear = gap - self.thickness > margin && gap - p > margin;
+            m | (u8::from(clear) << l)
+        })
+    }
+
+    /// [`Self::resolve`] for the lanes set in `lanes` of eight particles
+    /// moving from `x0` to `x`: the same bits, lane by lane (module docs).
+    #[inline(always)]
+    pub(crate) fn resolve_lanes(&self, near: &[usize], lanes: u8, x0: &Point<F32x8>, x: &mut Point<F32x8>) {
+        for &k in near {
+            let boxed = (0..LANES).fold(0u8, |m, l| {
+                let (a, b) = (lane(x0, l), lane(x, l));
+                m | (u8::from(lanes & (1 << l) != 0 && self.may_touch(k, a.min(b), a.max(b))) << l)
+            });
+            if boxed == 0 {
+                continue;
+            }
+            let one_by_one = match self.colliders[k].ball {
+                Some((centre, radius)) => self.resolve_ball(k, centre, radius, boxed, x0, x),
+                None => boxed,
+            };
+            for l in (0..LANES).filter(|l| one_by_one & (1 << l) != 0) {
+                let out = self.resolve_one(k, lane(x0, l), lane(x, l));
+                for (axis, value) in x.iter_mut().zip(out.to_array()) {
+                    axis.0[l] = value;
+                }
+            }
+        }
+    }
+
+    /// Steps 2 and 3 against the still sphere `k` (centre, radius) for the
+    /// lanes in `lanes`, written in the order of `resolve_one`. Returns the
+    /// lanes that may need step 1, left for `resolve_one`.
+    #[inline(always)]
+    fn resolve_ball(
+        &self,
+        k: usize,
+        centre: Vec3,
+        radius: f32,
+        lanes: u8,
+        x0: &Point<F32x8>,
+        x: &mut Point<F32x8>,
+    ) -> u8 {
+        let sub = |u: Point<F32x8>, v: Point<F32x8>| -> Point<F32x8> { [u[0] - v[0], u[1] - v[1], u[2] - v[2]] };
+        let dot = |u: Point<F32x8>, v: Point<F32x8>| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+        let scale = |u: Point<F32x8>, s: F32x8| -> Point<F32x8> { [u[0] * s, u[1] * s, u[2] * s] };
+        let zero = F32x8::splat(0.0);
+        let c = centre.to_array().map(F32x8::splat);
+        let (l0, l) = (sub(*x0, c), sub(*x, c));
+        // Proximity: φ = |ℓ| − radius, n = ℓ/|ℓ| (+y at the centre).
+        let length = dot(l, l).sqrt();
+        let up = [zero, F32x8::splat(1.0), zero];
+        let normal: Point<F32x8> = std::array::from_fn(|i| F32x8::if_greater(length, zero, l[i] / length, up[i]));
+        let distance = length - F32x8::splat(radius);
+        // Step 1 is skipped where the end is farther from the ball than the
+        // path is long; elsewhere it is left to `resolve_one`.
+        let path = dot(sub(l, l0), sub(l, l0)).sqrt();
+        let mut entry = 0u8;
+        let mut pushed = 0u8;
+        let push = F32x8::splat(self.thickness) - distance;
+        for i in 0..LANES {
+            entry |= u8::from(distance.0[i] <= path.0[i]) << i;
+            pushed |= u8::from(push.0[i] > 0.0) << i;
+        }
+        // Step 2, then 3 with D = the push.
+        let l = [l[0] + normal[0] * push, l[1] + normal[1] * push, l[2] + normal[2] * push];
+        let motion = sub(l, l0);
+        let tangential = sub(motion, scale(normal, dot(motion, normal)));
+        let slide = dot(tangential, tangential).sqrt();
+        let bound = F32x8::splat(self.colliders[k].friction) * push;
+        // |Δ_t| ≤ μD: all of Δ_t; otherwise Δ_t · μD/|Δ_t| (|Δ_t| > μD ≥ 0).
+        let kinetic = bound / slide;
+        let removed: Point<F32x8> =
+            std::array::from_fn(|i| F32x8::if_greater(slide, bound, tangential[i] * kinetic, tangential[i]));
+        let out: Point<F32x8> = std::array::from_fn(|i| (l[i] - removed[i]) + c[i]);
+        // Lanes not pushed come out where they went in, as in `resolve_one`.
+        let take = lanes & !entry & pushed;
+        for i in (0..LANES).filter(|i| take & (1 << i) != 0) {
+            for (axis, value) in x.iter_mut().zip(&out) {
+                axis.0[i] = value.0[i];
+            }
+        }
+        lanes & entry
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::collider::{Collider, Pose, Shape};
+
+    #[test]
+    fn the_lanes_filter_clears_only_particles_resolve_leaves_alone() {
+        // A still sphere (r 0.5 at (0, 0.6, 0)), a tilted ground, and a
+        // sphere moving over the substep; 4000 particles on short and long
+        // paths around them, eight at a time. A clear lane must come out of
+        // `resolve` bit for bit where it went in; the box part of the filter
+        // must agree with `may_touch` exactly; and the sphere test must clear
+        // many particles inside the sphere's box (or it proves nothing).
+        let tilted = Pose { rotation: glam::Quat::from_rotation_z(0.2), translation: Vec3::new(0.0, -0.1, 0.0) };
+        let mut moving = Collider::fixed(Shape::Sphere { radius: 0.3 }, Pose::default());
+        moving.pose.translation = Vec3::new(0.9, 0.2, 0.0);
+        moving.motion =
+            crate::sim::collider::Motion::Moving { velocity: Vec3::new(0.0, 1.0, 0.0), angular_velocity: Vec3::ZERO };
+        let colliders = vec![
+            Collider::fixed(
+                Shape::Sphere { radius: 0.5 },
+                Pose { translation: Vec3::new(0.0, 0.6, 0.0), ..Pose::default() },
+            ),
+            Collider::fixed(Shape::Plane { normal: Vec3::Y }, tilted),
+            moving,
+        ];
+        let step = ContactStep::new(&colliders, 0.01, 0.3, 0.0, 0.01);
+        let all = step.all();
+        let mut state = 7u32;
+        let mut random = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        let (mut cleared_in_box, mut moved) = (0, 0);
+        for group in 0..500 {
+            let reach = if group % 2 == 0 { 0.02 } else { 0.4 };
+            let pairs: [(Vec3, Vec3); LANES] = std::array::from_fn(|_| {
+                let x = Vec3::new(random() * 2.4, 0.6 + random() * 2.4, random() * 2.4);
+                (x + Vec3::new(random(), random(), random()) * reach, x)
+            });
+            let lanes = |pick: fn(&(Vec3, Vec3)) -> Vec3| -> Point<F32x8> {
+                std::array::from_fn(|i| F32x8(std::array::from_fn(|l| pick(&pairs[l])[i])))
+            };
+            let (x0, x) = (lanes(|p| p.0), lanes(|p| p.1));
+            let masks: Vec<u8> = (0..colliders.len()).map(|k| step.may_touch_lanes(k, &x0, &x)).collect();
+            for (l, &(a, b)) in pairs.iter().enumerate() {
+                let out = step.resolve(&all, a, b);
+                moved += usize::from(out != b);
+                if masks.iter().all(|m| m & (1 << l) == 0) {
+                    assert_eq!(out.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits), "{a} -> {b}");
+                }
+                for k in [1, 2] {
+                    assert_eq!(masks[k] & (1 << l) != 0, step.may_touch(k, a.min(b), a.max(b)), "collider {k}");
+                }
+                let boxed = step.may_touch(0, a.min(b), a.max(b));
+                cleared_in_box += usize::from(boxed && masks[0] & (1 << l) == 0);
+                assert!(boxed || masks[0] & (1 << l) == 0);
+            }
+        }
+        assert!(cleared_in_box > 50, "{cleared_in_box} cleared inside the still sphere's box");
+        assert!(moved > 200, "{moved} particles moved by contact");
+    }
+
+    #[test]
+    fn the_lanes_narrow_phase_gives_each_particle_the_bits_of_resolve() {
+        // A still sphere (turned, so its rotation really is left out), a
+        // tilted ground and a moving sphere; 4000 particles, eight at a time,
+        // resting on or near the still ball (paths of 0.1 to 6 mm), pressed
+        // into it, and fast (paths up to 0.3 m, which take the ray cast).
+        // `resolve_lanes` must give every lane the bits `resolve` gives it,
+        // and the ball's lanes must really run in lanes, with pushes and
+        // both kinds of friction among them (or the test proves nothing).
+        let turned = Pose { rotation: glam::Quat::from_rotation_x(0.7), translation: Vec3::new(0.0, 0.6, 0.0) };
+        let tilted = Pose { rotation: glam::Quat::from_rotation_z(0.2), translation: Vec3::new(0.0, -0.1, 0.0) };
+        let mut moving = Collider::fixed(Shape::Sphere { radius: 0.3 }, Pose::default());
+        moving.pose.translation = Vec3::new(0.6, 0.4, 0.0);
+        moving.motion =
+            crate::sim::collider::Motion::Moving { velocity: Vec3::new(0.0, 1.0, 0.0), angular_velocity: Vec3::ZERO };
+        let colliders = vec![
+            Collider::fixed(Shape::Sphere { radius: 0.5 }, turned),
+            Collider::fixed(Shape::Plane { normal: Vec3::Y }, tilted),
+            moving,
+        ];
+        let step = ContactStep::new(&colliders, 0.01, 0.3, 0.0, 0.01);
+        let all = step.all();
+        let mut state = 11u32;
+        let mut random = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        let (mut in_lanes, mut fallback) = (0u32, 0u32);
+        let (mut pushed, mut sticking, mut sliding) = (0, 0, 0);
+        for group in 0..500 {
+            let reach = [0.0002, 0.006, 0.3][group % 3];
+            let pairs: [(Vec3, Vec3); LANES] = std::array::from_fn(|_| {
+                // On a shell from 5 mm inside the ball to 2 cm outside it.
+                let direction = Vec3::new(random(), random(), random()).normalize_or(Vec3::Y);
+                let x = Vec3::new(0.0, 0.6, 0.0) + direction * (0.5 + 0.025 * (random() + 0.3));
+                (x + Vec3::new(random(), random(), random()) * reach, x)
+            });
+            let points = |pick: fn(&(Vec3, Vec3)) -> Vec3| -> Point<F32x8> {
+                std::array::from_fn(|i| F32x8(std::array::from_fn(|l| pick(&pairs[l])[i])))
+            };
+            let (x0, mut x) = (points(|p| p.0), points(|p| p.1));
+            let lanes = 0b1011_1111; // one lane left out: it must not move
+            let mut ball = x;
+            let boxed = (0..LANES).fold(0u8, |m, l| {
+                let (a, b) = (lane(&x0, l), lane(&x, l));
+                m | (u8::from(lanes & (1 << l) != 0 && step.may_touch(0, a.min(b), a.max(b))) << l)
+            });
+            let left = step.resolve_ball(0, Vec3::new(0.0, 0.6, 0.0), 0.5, boxed, &x0, &mut ball);
+            in_lanes += (boxed & !left).count_ones();
+            fallback += left.count_ones();
+            step.resolve_lanes(&all, lanes, &x0, &mut x);
+            for (l, &(a, b)) in pairs.iter().enumerate() {
+                let expected = if lanes & (1 << l) != 0 { step.resolve(&all, a, b) } else { b };
+                assert_eq!(
+                    lane(&x, l).to_array().map(f32::to_bits),
+                    expected.to_array().map(f32::to_bits),
+                    "{a} -> {b}"
+                );
+                if boxed & !left & (1 << l) != 0 && lane(&ball, l) != b {
+                    pushed += 1;
+                    // Friction stuck it (no tangential motion left) or let it slide.
+                    let centre = Vec3::new(0.0, 0.6, 0.0);
+                    let n = (lane(&ball, l) - centre).normalize();
+                    let motion = lane(&ball, l) - a;
+                    if (motion - n * motion.dot(n)).length() < 1e-6 { sticking += 1 } else { sliding += 1 }
+                }
+            }
+        }
+        assert!(in_lanes > 1000 && fallback > 100, "{in_lanes} ball lanes in lanes, {fallback} one by one");
+        assert!(pushed > 500 && sticking > 100 && sliding > 100, "{pushed} pushed: {sticking} stuck, {sliding} slid");
+    }
+}
