@@ -38,20 +38,22 @@
 //! box of start and end positions misses it skips that collider. A plane
 //! is skipped when the whole box is farther than r on its free side.
 //!
-//! **A sphere that stands still** is handled around its centre in world
-//! axes, ℓ = x − c, its rotation left out (a ball looks the same turned; for
-//! an unrotated ball these are the numbers of P⁻¹ and P).
+//! **A sphere or plane that stands still** is handled in world axes about
+//! its centre or its point c, ℓ = x − c, with the plane's world normal:
+//! neither changes when turned about its normal or centre, so the frame's
+//! rotation is left out (for an unrotated collider these are the numbers of
+//! P⁻¹ and P).
 //!
 //! **Eight at a time** (`contact/lanes.rs`, for the grid solver's lanes):
 //! the broad phase lane by lane, which for a still sphere also clears the
 //! particles in its box whose path stays clear of the ball (a draped cloth
 //! hangs around the ball inside its box); then steps 2 and 3 against a
-//! still sphere in lanes, with the one-particle code's bits. Everything else
-//! goes one particle at a time.
+//! still sphere or plane in lanes, with the one-particle code's bits.
+//! Everything else goes one particle at a time.
 
 use glam::Vec3;
 
-use super::collider::{Collider, Pose, Shape};
+use super::collider::{Collider, Pose, Proximity, Shape};
 use super::mesh::bounds;
 
 mod lanes;
@@ -72,9 +74,28 @@ pub struct PlacedCollider<'a> {
     pub(super) bounds: Option<(Vec3, Vec3)>,
     /// A plane's world normal and a point on it, at the start and the end.
     pub(super) plane: Option<[(Vec3, Vec3); 2]>,
-    /// A sphere that stands still over the substep: its world centre and
-    /// radius.
-    pub(super) ball: Option<(Vec3, f32)>,
+    /// A sphere or plane that stands still over the substep, handled in
+    /// world axes about a point of its own.
+    pub(super) still: Option<Still>,
+}
+
+/// A collider that stands still over a substep, in world axes.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Still {
+    /// A sphere: its world centre and radius.
+    Ball { centre: Vec3, radius: f32 },
+    /// A plane: its world normal and a point on it.
+    Plane { normal: Vec3, point: Vec3 },
+}
+
+impl Still {
+    /// The point the collider's frame is centred on.
+    pub(super) fn origin(&self) -> Vec3 {
+        match *self {
+            Still::Ball { centre, .. } => centre,
+            Still::Plane { point, .. } => point,
+        }
+    }
 }
 
 /// Everything the collide phase of one substep needs.
@@ -116,12 +137,14 @@ impl<'a> ContactStep<'a> {
                     }
                     _ => None,
                 };
-                let ball = match c.shape {
-                    Shape::Sphere { radius } if start == end => Some((start.translation, radius)),
+                let still = match (&c.shape, plane) {
+                    _ if start != end => None,
+                    (&Shape::Sphere { radius }, _) => Some(Still::Ball { centre: start.translation, radius }),
+                    (Shape::Plane { .. }, Some([(normal, point), _])) => Some(Still::Plane { normal, point }),
                     _ => None,
                 };
                 let friction = c.friction.unwrap_or(friction);
-                PlacedCollider { shape: &c.shape, start, end, friction, bounds, plane, ball }
+                PlacedCollider { shape: &c.shape, start, end, friction, bounds, plane, still }
             })
             .collect();
         Self { thickness, colliders }
@@ -169,17 +192,19 @@ impl<'a> ContactStep<'a> {
     pub(super) fn resolve_one(&self, k: usize, x0: Vec3, x: Vec3) -> Vec3 {
         let c = &self.colliders[k];
         let r = self.thickness;
-        // A still sphere's frame: its centre in world axes. A ball looks the
-        // same turned, so its rotation is left out (for an unrotated ball
-        // these are the numbers of P⁻¹ and P), and the lanes can follow
-        // (`lanes.rs`).
-        let (l0, mut l) = match c.ball {
-            Some((centre, _)) => (x0 - centre, x - centre),
+        // A still ball or plane: world axes about its own point (module
+        // docs), which the lanes follow (`lanes.rs`).
+        let (l0, mut l) = match c.still {
+            Some(still) => (x0 - still.origin(), x - still.origin()),
             None => (c.start.inverse_apply(x0), c.end.inverse_apply(x)),
+        };
+        let proximity = |l: Vec3| match c.still {
+            Some(Still::Plane { normal, .. }) => Some(Proximity { distance: l.dot(normal), normal }),
+            _ => c.shape.proximity(l),
         };
         let mut depth = 0.0f32;
         let mut normal = None;
-        let mut near = c.shape.proximity(l);
+        let mut near = proximity(l);
         // 1. The path entered the shape: stop it on the entry's side. φ is
         // 1-Lipschitz, so a path whose end is farther from the shape than
         // the path is long never touched it, and the ray cast is skipped
@@ -192,7 +217,7 @@ impl<'a> ContactStep<'a> {
                 l += entry.normal * push;
                 depth += push;
                 normal = Some(entry.normal);
-                near = c.shape.proximity(l);
+                near = proximity(l);
             }
         }
         // 2. Within the thickness of the surface: out along the normal.
@@ -217,8 +242,8 @@ impl<'a> ContactStep<'a> {
         } else if slide > 0.0 {
             l -= tangential * (bound / slide);
         }
-        match c.ball {
-            Some((centre, _)) => l + centre,
+        match c.still {
+            Some(still) => l + still.origin(),
             None => c.end.apply(l),
         }
     }
