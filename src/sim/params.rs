@@ -128,7 +128,9 @@ pub struct SolverParams {
     /// ω: over-relaxation of every projection, which moves the bar's ends ω
     /// times the way to its rest length. Range `1 <= ω < 2`, default 1 (plain
     /// projection). Values up to about 1.5 converge in fewer passes on cloth;
-    /// near 2 the passes oscillate, so 1.2–1.5 is the safe choice.
+    /// near 2 the passes oscillate, so 1.2–1.5 is the safe choice. On a cloth
+    /// stretched many times its rest size (one pass, huge steps, no damping)
+    /// ω > 1 diverges: the stability tests found a case at ω = 1.41.
     pub over_relaxation: f32,
     /// Long-range attachments (Kim et al. 2012): every free particle stays
     /// within its rest path length (along bars, ×(1 + slack)) of the nearest
