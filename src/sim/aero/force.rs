@@ -12,7 +12,7 @@
 use glam::Vec3;
 
 use super::super::wind::Air;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, per_lane};
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, cross, dot, per_lane, sub};
 use crate::sim::fast::simd::dispatch;
 
 dispatch! {
@@ -66,7 +66,7 @@ fn force(air: &Air, dt: f32, mass: F32x8, x: [Point<F32x8>; 3], relative: [Point
     let [a, b, c] = x;
     let normal2 = cross(sub(b, a), sub(c, a));
     let twice_area = dot(normal2, normal2).sqrt();
-    let n = scale(normal2, |v| v / twice_area);
+    let n = each(normal2, |v| v / twice_area);
     let area = F32x8::splat(0.5) * twice_area;
     let [ra, rb, rc] = relative;
     let three = F32x8::splat(3.0);
@@ -78,10 +78,10 @@ fn force(air: &Air, dt: f32, mass: F32x8, x: [Point<F32x8>; 3], relative: [Point
     let pressure = q * F32x8::splat(air.drag) * un * un;
     // sign(u·n) · min(pressure, cap): both are ≥ 0, so the sign is copied.
     let drag_size = F32x8::if_greater(pressure, drag_cap, drag_cap, pressure).copysign(un);
-    let drag = scale(n, |v| v * drag_size);
+    let drag = each(n, |v| v * drag_size);
     // A triangle without area feels nothing.
     let zero = F32x8::splat(0.0);
-    let area_or_zero = |f: Point<F32x8>| scale(f, |v| F32x8::if_greater(twice_area, zero, v, zero));
+    let area_or_zero = |f: Point<F32x8>| each(f, |v| F32x8::if_greater(twice_area, zero, v, zero));
     if air.lift == 0.0 {
         return area_or_zero(drag);
     }
@@ -98,7 +98,7 @@ fn force(air: &Air, dt: f32, mass: F32x8, x: [Point<F32x8>; 3], relative: [Point
     let cap = mass * speed / dt;
     let size2 = dot(lift, lift);
     let shrink = cap / size2.sqrt();
-    let capped = scale(lift, |v| F32x8::if_greater(size2, cap * cap, v * shrink, v));
+    let capped = each(lift, |v| F32x8::if_greater(size2, cap * cap, v * shrink, v));
     // Still air relative to the triangle (|u| = 0): no lift.
     let total = [drag[0] + capped[0], drag[1] + capped[1], drag[2] + capped[2]];
     let still = |k: usize| F32x8::if_greater(speed2, zero, total[k], drag[k]);
@@ -133,25 +133,8 @@ fn corner(v: &[Vec3], index: &[[usize; 3]; LANES], k: usize) -> Point<F32x8> {
 
 /// `f` on each coordinate.
 #[inline(always)]
-fn scale(p: Point<F32x8>, f: impl Fn(F32x8) -> F32x8) -> Point<F32x8> {
+fn each(p: Point<F32x8>, f: impl Fn(F32x8) -> F32x8) -> Point<F32x8> {
     [f(p[0]), f(p[1]), f(p[2])]
-}
-
-#[inline(always)]
-fn sub(a: Point<F32x8>, b: Point<F32x8>) -> Point<F32x8> {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// (a_x b_x + a_y b_y) + a_z b_z, in glam's order.
-#[inline(always)]
-fn dot(a: Point<F32x8>, b: Point<F32x8>) -> F32x8 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// a × b, in glam's order.
-#[inline(always)]
-fn cross(a: Point<F32x8>, b: Point<F32x8>) -> Point<F32x8> {
-    [a[1] * b[2] - b[1] * a[2], a[2] * b[0] - b[2] * a[0], a[0] * b[1] - b[0] * a[1]]
 }
 
 #[cfg(test)]

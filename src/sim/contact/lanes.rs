@@ -16,13 +16,7 @@
 use glam::Vec3;
 
 use super::{ContactStep, Still};
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real};
-
-/// Lane l of eight points.
-#[inline(always)]
-fn lane(p: &Point<F32x8>, l: usize) -> Vec3 {
-    Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l])
-}
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, lane, scale, sub};
 
 impl ContactStep<'_> {
     /// Which of eight particles, moving from `x0` to `x` (lanes), collider
@@ -38,25 +32,30 @@ impl ContactStep<'_> {
     /// `resolve` computes them.
     #[inline(always)]
     pub(crate) fn may_touch_lanes(&self, k: usize, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        let boxed = (0..LANES).fold(0u8, |m, l| {
-            let (a, b) = (lane(x0, l), lane(x, l));
-            m | (u8::from(self.may_touch(k, a.min(b), a.max(b))) << l)
-        });
+        let boxed = self.boxed_lanes(k, u8::MAX, x0, x);
         match self.colliders[k].still {
             Some(Still::Ball { centre, radius }) if boxed != 0 => boxed & !self.clear_of_ball(centre, radius, x0, x),
             _ => boxed,
         }
     }
 
+    /// The lanes of `lanes` whose box of `x0` and `x` collider `k` may
+    /// touch: [`Self::may_touch`], the test `resolve` makes, lane by lane.
+    #[inline(always)]
+    fn boxed_lanes(&self, k: usize, lanes: u8, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
+        (0..LANES).filter(|l| lanes & (1 << l) != 0).fold(0u8, |m, l| {
+            let (a, b) = (lane(x0, l), lane(x, l));
+            m | (u8::from(self.may_touch(k, a.min(b), a.max(b))) << l)
+        })
+    }
+
     /// The lanes whose path `x0 → x` stays clear of a still sphere (see
     /// [`Self::may_touch_lanes`]), as a bit mask.
     #[inline(always)]
     fn clear_of_ball(&self, centre: Vec3, radius: f32, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        let centre = centre.to_array();
-        let offset: Point<F32x8> = std::array::from_fn(|i| x[i] - F32x8::splat(centre[i]));
-        let path: Point<F32x8> = std::array::from_fn(|i| x[i] - x0[i]);
-        let length = |v: &Point<F32x8>| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let (distance, path) = (length(&offset), length(&path));
+        let offset = sub(*x, centre.to_array().map(F32x8::splat));
+        let path = sub(*x, *x0);
+        let (distance, path) = (dot(offset, offset).sqrt(), dot(path, path).sqrt());
         (0..LANES).fold(0u8, |m, l| {
             let (d, p) = (distance.0[l], path.0[l]);
             let margin = 1e-4 * d;
@@ -71,10 +70,7 @@ impl ContactStep<'_> {
     #[inline(always)]
     pub(crate) fn resolve_lanes(&self, near: &[usize], lanes: u8, x0: &Point<F32x8>, x: &mut Point<F32x8>) {
         for &k in near {
-            let boxed = (0..LANES).fold(0u8, |m, l| {
-                let (a, b) = (lane(x0, l), lane(x, l));
-                m | (u8::from(lanes & (1 << l) != 0 && self.may_touch(k, a.min(b), a.max(b))) << l)
-            });
+            let boxed = self.boxed_lanes(k, lanes, x0, x);
             if boxed == 0 {
                 continue;
             }
@@ -96,9 +92,6 @@ impl ContactStep<'_> {
     /// may need step 1 (against a ball), left for `resolve_one`.
     #[inline(always)]
     fn resolve_still(&self, k: usize, still: Still, lanes: u8, x0: &Point<F32x8>, x: &mut Point<F32x8>) -> u8 {
-        let sub = |u: Point<F32x8>, v: Point<F32x8>| -> Point<F32x8> { [u[0] - v[0], u[1] - v[1], u[2] - v[2]] };
-        let dot = |u: Point<F32x8>, v: Point<F32x8>| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-        let scale = |u: Point<F32x8>, s: F32x8| -> Point<F32x8> { [u[0] * s, u[1] * s, u[2] * s] };
         let zero = F32x8::splat(0.0);
         let c = still.origin().to_array().map(F32x8::splat);
         let (l0, l) = (sub(*x0, c), sub(*x, c));
@@ -269,10 +262,7 @@ mod tests {
             let (x0, mut x) = (points(|p| p.0), points(|p| p.1));
             let lanes = 0b1011_1111; // one lane left out: it must not move
             let mut ball = x;
-            let boxed = (0..LANES).fold(0u8, |m, l| {
-                let (a, b) = (lane(&x0, l), lane(&x, l));
-                m | (u8::from(lanes & (1 << l) != 0 && step.may_touch(0, a.min(b), a.max(b))) << l)
-            });
+            let boxed = step.boxed_lanes(0, lanes, &x0, &x);
             let still = step.colliders[0].still.expect("a still ball");
             let left = step.resolve_still(0, still, boxed, &x0, &mut ball);
             in_lanes += (boxed & !left).count_ones();

@@ -164,6 +164,36 @@ impl F32x8 {
 /// A point: x, y, z.
 pub(crate) type Point<T> = [T; 3];
 
+/// u − v.
+#[inline(always)]
+pub(crate) fn sub<T: Real>(u: Point<T>, v: Point<T>) -> Point<T> {
+    [u[0] - v[0], u[1] - v[1], u[2] - v[2]]
+}
+
+/// u · s.
+#[inline(always)]
+pub(crate) fn scale<T: Real>(u: Point<T>, s: T) -> Point<T> {
+    [u[0] * s, u[1] * s, u[2] * s]
+}
+
+/// (u_x v_x + u_y v_y) + u_z v_z, in glam's order (so lanes give glam's bits).
+#[inline(always)]
+pub(crate) fn dot<T: Real>(u: Point<T>, v: Point<T>) -> T {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
+/// u × v, in glam's order.
+#[inline(always)]
+pub(crate) fn cross<T: Real>(u: Point<T>, v: Point<T>) -> Point<T> {
+    [u[1] * v[2] - v[1] * u[2], u[2] * v[0] - v[2] * u[0], u[0] * v[1] - v[0] * u[1]]
+}
+
+/// Lane l of eight points.
+#[inline(always)]
+pub(crate) fn lane(p: &Point<F32x8>, l: usize) -> glam::Vec3 {
+    glam::Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l])
+}
+
 /// Projects one bar (the seed's Figure 3): moves `a` and `b` along the bar so
 /// their distance returns towards `rest`, each in proportion to its inverse
 /// mass, ω times the way. Returns `|len − rest|`, the violation before the

@@ -20,7 +20,7 @@
 use glam::Vec3;
 
 use super::SelfContactStep;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, per_lane};
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, per_lane, scale, sub};
 use crate::sim::fast::simd::{self, SimdLevel};
 
 /// What the phase reads of each slot of the sorted table, one 16-byte row
@@ -121,10 +121,6 @@ fn rule<T: Real>(
     wj: T,
     step: &SelfContactStep,
 ) -> Point<T> {
-    let sub = |u: Point<T>, v: Point<T>| -> Point<T> { [u[0] - v[0], u[1] - v[1], u[2] - v[2]] };
-    let dot = |u: Point<T>, v: Point<T>| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    let scale = |u: Point<T>, s: T| -> Point<T> { [u[0] * s, u[1] * s, u[2] * s] };
-
     let r = T::splat(step.thickness);
     let zero = T::splat(0.0);
     let d = sub(xi, xj);

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
 use super::{GridLayout, Slot, Tile};
 use crate::sim::contact::ContactStep;
-use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, settle, tether};
+use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, lane, settle, tether};
 use crate::sim::fast::simd::dispatch;
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
@@ -112,7 +112,6 @@ impl Solver for GridLayout {
         x.resize(n, Vec3::ZERO);
         x0.resize(n, Vec3::ZERO);
         w.resize(n, 0.0);
-        let lane = |p: &Slot, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
         for (i, loc) in self.locations.iter().enumerate() {
             let tile = &self.tiles[loc.tile as usize];
             let (s, l) = (loc.slot as usize, loc.lane as usize);
@@ -219,7 +218,6 @@ dispatch! {
 #[inline(always)]
 fn collide_tile_body(tile: &mut Tile, contact: &ContactStep) {
     let Tile { position, displacement, predicted, weight, .. } = tile;
-    let lane = |p: &Slot, l: usize| Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
     // The tile's box of start and end positions of moving particles.
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for (((x, d), q), w) in position.iter().zip(displacement.iter()).zip(predicted.iter()).zip(weight.iter()) {
