@@ -28,20 +28,24 @@
 //! **Neighbour search.** A hash grid with cells of side 2r, the particles
 //! sorted by cell and their positions copied in that order every substep
 //! (a linear pass; rebuilding once per step would need cells of the step's
-//! whole travel and visit more pairs). A particle's candidates are the
-//! particles of the 8 cells its ball of radius r can reach, tested eight
-//! at a time in lanes (`self_contact/cells.rs`, which shows why no
-//! candidate counts twice). No all-pairs loop. The pairs found are then
-//! pushed apart eight at a time in lanes (`self_contact/pair.rs`), each
-//! with the bits it gets alone.
+//! whole travel and visit more pairs). Each pair is found once, by the
+//! query of the particle that comes first in the sorted table: its
+//! candidates are the later particles of the 8 cells its ball of radius r
+//! can reach, tested eight at a time in lanes (`self_contact/cells.rs`,
+//! which shows why no candidate counts twice). No all-pairs loop. The pairs
+//! found are then pushed apart eight at a time in lanes, both ends of a
+//! pair at once (`self_contact/pair.rs`), each end with the bits it gets
+//! when computed alone.
 //!
-//! **Determinism.** Corrections are computed for every particle from the
-//! same snapshot of positions (Jacobi), each summing its neighbours in the
-//! fixed order of the sorted table, then applied at once: the result does
-//! not depend on the thread count. Large cloths split the particles over
-//! the rayon pool. The phase reads each pair's data (substep-start
-//! positions, weights, rest positions) from copies in the table's order,
-//! so the particles near one another are near in memory.
+//! **Determinism.** Corrections are computed for every pair from the same
+//! snapshot of positions (Jacobi) and summed per particle from zero in the
+//! order the pairs were found: first its pairs with particles earlier in
+//! the table (by that particle), then its own query's, in the query's
+//! order. The order depends on neither the thread count nor the SIMD level.
+//! Large cloths search and compute pairs in chunks on the rayon pool; the
+//! sums run in order after them. The phase reads each pair's data
+//! (substep-start positions, weights, rest positions) from copies in the
+//! table's order, so the particles near one another are near in memory.
 
 mod cells;
 mod pair;
@@ -52,7 +56,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use cells::{Cells, gather};
-use pair::{Slots, pair_corrections};
+use pair::{Moves, Slots, pair_corrections};
 
 /// Cloths of at least this many particles find their corrections on the
 /// thread pool.
@@ -88,34 +92,45 @@ pub struct SelfContactStep {
     pub parallel: bool,
 }
 
+/// The pairs found by the queries of a run of slots, each pair once, and
+/// what its two slots do to each other.
+#[derive(Default)]
+struct Pairs {
+    own: Vec<u32>,
+    other: Vec<u32>,
+    moved_own: Vec<Vec3>,
+    moved_other: Vec<Vec3>,
+}
+
 dispatch! {
-    /// The corrections of slots `first..first + out.len()`.
-    fn corrections(phase: &SelfContact, first: usize, out: &mut [Vec3], step: &SelfContactStep)
-        = corrections_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+    /// The pairs of slots `first..first + count` with later slots.
+    fn pairs_of(phase: &SelfContact, first: usize, count: usize, step: &SelfContactStep) -> Pairs
+        = pairs_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn corrections_body(phase: &SelfContact, first: usize, out: &mut [Vec3], step: &SelfContactStep) {
-    // Every pair closer than r, owner by owner, each owner's in the order
-    // of the search.
-    let (mut own, mut other) = (Vec::new(), Vec::new());
-    let mut ends = Vec::with_capacity(out.len());
-    for slot in first..first + out.len() {
-        if phase.slot_point[slot][3] > 0.0 {
-            phase.cells.push_near(slot, step.thickness, &mut other);
-            own.resize(other.len(), slot as u32);
+fn pairs_body(phase: &SelfContact, first: usize, count: usize, step: &SelfContactStep) -> Pairs {
+    let mut pairs = Pairs::default();
+    phase.cells.pairs_after(first, count, step.thickness, &mut pairs.own, &mut pairs.other);
+    // Two pinned particles do not touch each other (w_i + w_j = 0).
+    let free = |slot: u32| phase.slot_point[slot as usize][3] > 0.0;
+    if !(first..first + count).all(|slot| free(slot as u32)) {
+        let mut kept = 0;
+        for k in 0..pairs.own.len() {
+            if free(pairs.own[k]) || free(pairs.other[k]) {
+                (pairs.own[kept], pairs.other[kept]) = (pairs.own[k], pairs.other[k]);
+                kept += 1;
+            }
         }
-        ends.push(other.len());
+        pairs.own.truncate(kept);
+        pairs.other.truncate(kept);
     }
-    let mut moved = vec![Vec3::ZERO; other.len()];
+    pairs.moved_own = vec![Vec3::ZERO; pairs.own.len()];
+    pairs.moved_other = vec![Vec3::ZERO; pairs.own.len()];
     let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest };
-    pair_corrections(&slots, &own, &other, &mut moved, step);
-    // Each owner sums its pairs in order, from zero.
-    let mut begin = 0;
-    for (out, &end) in out.iter_mut().zip(&ends) {
-        *out = moved[begin..end].iter().fold(Vec3::ZERO, |total, &m| total + m);
-        begin = end;
-    }
+    let moves = Moves { own: &mut pairs.moved_own, other: &mut pairs.moved_other };
+    pair_corrections(&slots, &pairs.own, &pairs.other, moves, step);
+    pairs
 }
 
 /// Slots of the sorted table one task of the thread pool takes.
@@ -152,15 +167,21 @@ impl SelfContact {
         gather(&mut self.slot_point, order, parallel, |i| row(x_now[i], w[i]));
         gather(&mut self.slot_start, order, parallel, |i| row(x0[i], 0.0));
         gather(&mut self.slot_rest, order, parallel, |i| row(rest[i], 0.0));
+        let this = &*self;
+        let find = |c: usize| pairs_of(this, c * CHUNK, CHUNK.min(n - c * CHUNK), step);
+        let chunks = n.div_ceil(CHUNK);
+        let found: Vec<Pairs> =
+            if parallel { (0..chunks).into_par_iter().map(find).collect() } else { (0..chunks).map(find).collect() };
+        // Each slot sums its pairs from zero in the order they were found:
+        // those with earlier slots (by the earlier slot), then its own.
         let mut correction = std::mem::take(&mut self.correction);
         correction.clear();
         correction.resize(n, Vec3::ZERO);
-        let this = &*self;
-        let find = |(c, out): (usize, &mut [Vec3])| corrections(this, c * CHUNK, out, step);
-        if parallel {
-            correction.par_chunks_mut(CHUNK).enumerate().for_each(find);
-        } else {
-            correction.chunks_mut(CHUNK).enumerate().for_each(find);
+        for pairs in &found {
+            for k in 0..pairs.own.len() {
+                correction[pairs.own[k] as usize] += pairs.moved_own[k];
+                correction[pairs.other[k] as usize] += pairs.moved_other[k];
+            }
         }
         for (&i, c) in self.cells.order.iter().zip(&correction) {
             x[i as usize] += *c;

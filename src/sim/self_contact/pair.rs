@@ -16,6 +16,18 @@
 //! A pair with |d| ≥ d_min or d = 0 gives nothing. Every lane computes the
 //! one-pair form with the same operations in the same order, so a pair gets
 //! the same bits whichever lane or batch it is in.
+//!
+//! **Both ends at once.** Each pair is computed once, for i and for j. With
+//! the roles swapped, d, n, Δ and t only change sign, which IEEE arithmetic
+//! does exactly (−a − (−b) = b − a, (−a)·b = −(a·b)), and |d|, d_min,
+//! Δ·n, |t| are the same numbers; only the share differs,
+//! `s_j = w_j / (w_i + w_j)`. So j's move is
+//!
+//! ```text
+//! j moves by  t f_j − n p_j        p_j = (d_min − |d|) · s_j,  f_j as f with s_j, p_j
+//! ```
+//!
+//! with the bits the rule gives when j is the owner.
 
 use glam::Vec3;
 
@@ -34,10 +46,17 @@ pub(super) struct Slots<'a> {
     pub(super) rest: &'a [[f32; 4]],
 }
 
-/// What slot `other[k]` does to slot `own[k]`, for each k, into `out`
-/// (same length as `own` and `other`).
+/// The moves of pair k's two slots, `own[k]` and `other[k]`.
+pub(super) struct Moves<'a> {
+    pub(super) own: &'a mut [Vec3],
+    pub(super) other: &'a mut [Vec3],
+}
+
+/// What slots `own[k]` and `other[k]` do to each other, for each k, into
+/// `out` (every slice the same length; the two slots of a pair not both
+/// pinned).
 #[allow(unsafe_code)]
-pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: &mut [Vec3], step: &SelfContactStep) {
+pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
     #[cfg(target_arch = "x86_64")]
     if simd::level() >= SimdLevel::Avx2 {
         // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
@@ -77,18 +96,19 @@ impl Rows for F32x8 {
 
 /// [`pair_corrections`] on lanes of type `T`.
 #[inline(always)]
-fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: &mut [Vec3], step: &SelfContactStep) {
+fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
     let point = |rows: &[[f32; 4]], s: &[usize; LANES]| -> Point<T> {
         let [x, y, z, _] = T::gather(rows, s);
         [x, y, z]
     };
-    for ((own, other), out) in own.chunks(LANES).zip(other.chunks(LANES)).zip(out.chunks_mut(LANES)) {
+    let batches = own.chunks(LANES).zip(other.chunks(LANES));
+    for ((own, other), (out_i, out_j)) in batches.zip(out.own.chunks_mut(LANES).zip(out.other.chunks_mut(LANES))) {
         // Lanes past the end pair slot 0 with itself: d = 0, nothing.
         let a: [usize; LANES] = std::array::from_fn(|l| own.get(l).map_or(0, |&s| s as usize));
         let b: [usize; LANES] = std::array::from_fn(|l| other.get(l).map_or(0, |&s| s as usize));
         let [xi0, xi1, xi2, wi] = T::gather(slots.point, &a);
         let [xj0, xj1, xj2, wj] = T::gather(slots.point, &b);
-        let moved = rule(
+        let [moved_i, moved_j] = rule(
             [xi0, xi1, xi2],
             [xj0, xj1, xj2],
             point(slots.start, &a),
@@ -99,15 +119,18 @@ fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: &mut 
             wj,
             step,
         );
-        let [mx, my, mz] = moved.map(T::values);
-        for (l, out) in out.iter_mut().enumerate() {
-            *out = Vec3::new(mx[l], my[l], mz[l]);
+        for (moved, out) in [(moved_i, out_i), (moved_j, out_j)] {
+            let [mx, my, mz] = moved.map(T::values);
+            for (l, out) in out.iter_mut().enumerate() {
+                *out = Vec3::new(mx[l], my[l], mz[l]);
+            }
         }
     }
 }
 
 /// The rule of the module docs for eight pairs in lanes: i's position,
-/// j's, their substep-start positions, rest positions and weights.
+/// j's, their substep-start positions, rest positions and weights; i's
+/// move and j's.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn rule<T: Real>(
@@ -120,7 +143,7 @@ fn rule<T: Real>(
     wi: T,
     wj: T,
     step: &SelfContactStep,
-) -> Point<T> {
+) -> [Point<T>; 2] {
     let r = T::splat(step.thickness);
     let zero = T::splat(0.0);
     let d = sub(xi, xj);
@@ -130,27 +153,35 @@ fn rule<T: Real>(
     // min(rest, r), as f32::min for numbers.
     let keep = T::if_greater(rest, r, r, rest);
     let dist = dist2.sqrt();
-    let share = wi / (wi + wj);
+    let (share_i, share_j) = (wi / (wi + wj), wj / (wi + wj));
     let n = [d[0] / dist, d[1] / dist, d[2] / dist];
-    let push = (keep - dist) * share;
+    let (push_i, push_j) = ((keep - dist) * share_i, (keep - dist) * share_j);
     let relative = sub(sub(xi, x0i), sub(xj, x0j));
     let tangential = sub(relative, scale(n, dot(relative, n)));
     let slide = dot(tangential, tangential).sqrt();
-    let bound = T::splat(step.friction) * push;
-    let kinetic = share * bound / slide;
-    let factor = T::if_greater(slide, bound, kinetic, share);
-    let moved = sub(scale(n, push), scale(tangential, factor));
+    let moved_i = sub(scale(n, push_i), scale(tangential, friction(share_i, push_i, slide, step)));
+    let moved_j = sub(scale(tangential, friction(share_j, push_j, slide, step)), scale(n, push_j));
     // Nothing unless 0 < |d| < d_min (and |d| < r, which d_min ≤ r implies).
     let touching = |v: T| T::if_greater(dist2, zero, T::if_greater(keep, dist, v, zero), zero);
-    [touching(moved[0]), touching(moved[1]), touching(moved[2])]
+    [
+        [touching(moved_i[0]), touching(moved_i[1]), touching(moved_i[2])],
+        [touching(moved_j[0]), touching(moved_j[1]), touching(moved_j[2])],
+    ]
+}
+
+/// The factor of the slide t one end removes, with its share and push:
+/// static (the slide undone, by the share) or kinetic (μ times the push).
+#[inline(always)]
+fn friction<T: Real>(share: T, push: T, slide: T, step: &SelfContactStep) -> T {
+    let bound = T::splat(step.friction) * push;
+    let kinetic = share * bound / slide;
+    T::if_greater(slide, bound, kinetic, share)
 }
 
 /// [`pair_corrections`] in AVX registers.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use glam::Vec3;
-
-    use super::{Rows, SelfContactStep, Slots, corrections_in};
+    use super::{Moves, Rows, SelfContactStep, Slots, corrections_in};
     use crate::sim::fast::avx::{Avx, gather_rows};
     use crate::sim::fast::kernel::LANES;
 
@@ -166,13 +197,7 @@ mod avx2 {
     }
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) fn pair_corrections(
-        slots: &Slots,
-        own: &[u32],
-        other: &[u32],
-        out: &mut [Vec3],
-        step: &SelfContactStep,
-    ) {
+    pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
         corrections_in::<Avx>(slots, own, other, out, step);
     }
 }
@@ -264,13 +289,18 @@ mod tests {
         let other: Vec<u32> = (1..x.len() as u32).collect();
         let own = vec![0u32; other.len()];
         let mut moved = vec![Vec3::NAN; other.len()];
+        let mut moved_j = vec![Vec3::NAN; other.len()];
         let step = SelfContactStep { thickness: r, friction: 0.4, parallel: false };
-        pair_corrections(&slots, &own, &other, &mut moved, &step);
+        pair_corrections(&slots, &own, &other, Moves { own: &mut moved, other: &mut moved_j }, &step);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
         let mut pushed = 0;
         for (k, &j) in other.iter().enumerate() {
             let j = j as usize;
             let expected = one_pair(x[0], x[j], x0[0], x0[j], rest[0], rest[j], w[0], w[j], r, 0.4);
-            assert_eq!(moved[k].to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits), "pair {j}");
+            assert_eq!(bits(moved[k]), bits(expected), "pair {j}");
+            // j's end: the bits of the rule with j as the owner.
+            let expected_j = one_pair(x[j], x[0], x0[j], x0[0], rest[j], rest[0], w[j], w[0], r, 0.4);
+            assert_eq!(bits(moved_j[k]), bits(expected_j), "pair {j}, j's end");
             pushed += usize::from(expected != Vec3::ZERO);
         }
         // Static, kinetic, the rest neighbour inside 5 mm and the pinned
@@ -279,7 +309,11 @@ mod tests {
         assert!(pushed >= 4, "{moved:?}");
         assert_eq!([moved[2], moved[3], moved[5]], [Vec3::ZERO; 3]);
         // The pinned partner: i takes the whole push, 1 cm − 5 mm, along +z
-        // less the friction's sideways part.
+        // less the friction's sideways part, and the partner none.
         assert!((moved[6].z + 0.005).abs() < 1e-6, "{:?}", moved[6]);
+        assert_eq!(moved_j[6], Vec3::ZERO);
+        // The kinetic pair (w_j = 2): j takes two thirds of the push, along
+        // +y: 2/3 · (1 cm − 6 mm).
+        assert!((moved_j[1].y - 2.0 / 3.0 * 0.004).abs() < 1e-6, "{:?}", moved_j[1]);
     }
 }
