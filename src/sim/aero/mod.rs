@@ -32,7 +32,8 @@
 //! gusts of smooth value noise carried along by the wind.
 //!
 //! **How it runs.** Three loops a substep, each in chunks on the thread pool
-//! for large cloths: the air's velocity relative to each particle; the
+//! for large cloths: the air's velocity relative to each particle (eight
+//! particles at a time where they share a cell of the noise, `noise.rs`); the
 //! force on each triangle, eight triangles at a time in SIMD lanes
 //! (`force.rs`: the same bits as one at a time); and each particle's share,
 //! gathered from its incident triangles.
@@ -44,8 +45,8 @@ use super::mesh::ClothMesh;
 use super::self_contact::PARALLEL_PARTICLES;
 use super::units;
 use super::wind::Air;
+use noise::Field;
 pub use noise::air_velocity;
-use noise::{Cell, Field};
 
 mod force;
 mod noise;
@@ -145,10 +146,7 @@ impl Aerodynamics {
             // cell cache (neighbours mostly share a cell of the noise).
             let dt = step.dt;
             let field = |((u, x), x_prev): ((&mut [Vec3], &[Vec3]), &[Vec3])| {
-                let mut cell = Cell::default();
-                for ((u, x), x_prev) in u.iter_mut().zip(x).zip(x_prev) {
-                    *u = gusts.at(*x, &mut cell) - (*x - *x_prev) / dt;
-                }
+                noise::relative_air(&gusts, dt, x, x_prev, u);
             };
             const CHUNK: usize = 2048;
             if parallel {
