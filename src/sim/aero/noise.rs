@@ -102,12 +102,7 @@ impl Field {
             return None;
         }
         let c = cell.corners_of(first);
-        let (six, fifteen, ten) = (F32x8::splat(6.0), F32x8::splat(15.0), F32x8::splat(10.0));
-        let fade = |axis: usize| {
-            let f = q[axis] - floor[axis];
-            f * f * f * (f * (f * six - fifteen) + ten)
-        };
-        let t = [fade(0), fade(1), fade(2)];
+        let t = [fade(q[0] - floor[0]), fade(q[1] - floor[1]), fade(q[2] - floor[2])];
         let mut out = mean;
         for (k, out) in out.iter_mut().enumerate() {
             let corner = |i: usize| F32x8::splat(c[i][k]);
@@ -133,7 +128,6 @@ dispatch! {
 #[inline(always)]
 fn relative_air_body(field: &Field, dt: f32, x: &[Vec3], x_prev: &[Vec3], relative: &mut [Vec3]) {
     let mut cell = Cell::default();
-    let one = |u: &mut Vec3, x: Vec3, x_prev: Vec3, cell: &mut Cell| *u = field.at(x, cell) - (x - x_prev) / dt;
     let groups = relative.chunks_mut(LANES).zip(x.chunks(LANES)).zip(x_prev.chunks(LANES));
     for ((u, x), x_prev) in groups {
         if u.len() == LANES {
@@ -153,15 +147,21 @@ fn relative_air_body(field: &Field, dt: f32, x: &[Vec3], x_prev: &[Vec3], relati
             }
         }
         for ((u, &x), &x_prev) in u.iter_mut().zip(x).zip(x_prev) {
-            one(u, x, x_prev, &mut cell);
+            *u = field.at(x, &mut cell) - (x - x_prev) / dt;
         }
     }
 }
 
-/// a + (b − a) t, as `value_noise`'s lerp does it.
+/// a + (b − a) t: for `f32` coordinates or lanes of them.
 #[inline(always)]
 fn lerp<T: Real>(a: T, b: T, t: T) -> T {
     a + (b - a) * t
+}
+
+/// The quintic fade 6f⁵ − 15f⁴ + 10f³ as f·f·f·(f·(f·6 − 15) + 10).
+#[inline(always)]
+fn fade<T: Real>(f: T) -> T {
+    f * f * f * (f * (f * T::splat(6.0) - T::splat(15.0)) + T::splat(10.0))
 }
 
 /// ⌊v⌋, exactly as `f32::floor` (which the x86-64 baseline build calls
@@ -209,15 +209,15 @@ impl Cell {
 fn value_noise(q: Vec3, cell: &mut Cell) -> Vec3 {
     let floor = Vec3::new(floor(q.x), floor(q.y), floor(q.z));
     let f = q - floor;
-    let fade = f * f * f * (f * (f * 6.0 - 15.0) + 10.0);
+    let t = Vec3::new(fade(f.x), fade(f.y), fade(f.z));
     let key = [floor.x as i32, floor.y as i32, floor.z as i32];
     let c = cell.corners_of(key);
-    let lerp = |a: Vec3, b: Vec3, t: f32| a + (b - a) * t;
-    let x00 = lerp(c[0], c[1], fade.x);
-    let x10 = lerp(c[2], c[3], fade.x);
-    let x01 = lerp(c[4], c[5], fade.x);
-    let x11 = lerp(c[6], c[7], fade.x);
-    lerp(lerp(x00, x10, fade.y), lerp(x01, x11, fade.y), fade.z)
+    let mix = |a: Vec3, b: Vec3, t: f32| Vec3::new(lerp(a.x, b.x, t), lerp(a.y, b.y, t), lerp(a.z, b.z, t));
+    let x00 = mix(c[0], c[1], t.x);
+    let x10 = mix(c[2], c[3], t.x);
+    let x01 = mix(c[4], c[5], t.x);
+    let x11 = mix(c[6], c[7], t.x);
+    mix(mix(x00, x10, t.y), mix(x01, x11, t.y), t.z)
 }
 
 /// Three values in [−1, 1] from a lattice point (a 32-bit integer hash,

@@ -74,16 +74,21 @@ fn cell_of(p: Vec3, inverse_side: f32) -> IVec3 {
 /// Cells per block along each axis (as a power of two).
 const BLOCK_BITS: u32 = 2;
 
+/// p_1, p_2, p_3: the block's coordinates are mixed by these primes.
+const BLOCK_PRIMES: [u32; 3] = [92_837_111, 689_287_499, 283_923_481];
+/// φ = 2³² / golden ratio, for Fibonacci hashing.
+const FIBONACCI: u32 = 0x9E37_79B9;
+
 #[inline(always)]
 fn bucket(c: IVec3, bits: u32) -> usize {
     let block = c >> BLOCK_BITS as i32;
-    let mixed = (block.x as u32).wrapping_mul(92_837_111)
-        ^ (block.y as u32).wrapping_mul(689_287_499)
-        ^ (block.z as u32).wrapping_mul(283_923_481);
+    let mixed = (block.x as u32).wrapping_mul(BLOCK_PRIMES[0])
+        ^ (block.y as u32).wrapping_mul(BLOCK_PRIMES[1])
+        ^ (block.z as u32).wrapping_mul(BLOCK_PRIMES[2]);
     let block_bits = bits - 3 * BLOCK_BITS;
     let within = (1 << BLOCK_BITS) - 1;
     let local = (c.x as u32 & within) | (c.y as u32 & within) << BLOCK_BITS | (c.z as u32 & within) << (2 * BLOCK_BITS);
-    ((mixed.wrapping_mul(0x9E37_79B9) >> (32 - block_bits)) << (3 * BLOCK_BITS) | local) as usize
+    ((mixed.wrapping_mul(FIBONACCI) >> (32 - block_bits)) << (3 * BLOCK_BITS) | local) as usize
 }
 
 dispatch! {
@@ -299,7 +304,7 @@ mod avx2 {
         _mm256_srai_epi32, _mm256_srl_epi32, _mm256_storeu_si256, _mm256_sub_ps, _mm256_xor_si256,
     };
 
-    use super::{BLOCK_BITS, Cells, lanes};
+    use super::{BLOCK_BITS, BLOCK_PRIMES, Cells, FIBONACCI, lanes};
     use crate::sim::fast::kernel::LANES;
 
     /// For each 8-bit mask, the lanes of its set bits in order, one byte
@@ -430,14 +435,14 @@ mod avx2 {
         );
         let mixed = _mm256_xor_si256(
             _mm256_xor_si256(
-                _mm256_mullo_epi32(bx, _mm256_set1_epi32(92_837_111)),
-                _mm256_mullo_epi32(by, _mm256_set1_epi32(689_287_499)),
+                _mm256_mullo_epi32(bx, _mm256_set1_epi32(BLOCK_PRIMES[0] as i32)),
+                _mm256_mullo_epi32(by, _mm256_set1_epi32(BLOCK_PRIMES[1] as i32)),
             ),
-            _mm256_mullo_epi32(bz, _mm256_set1_epi32(283_923_481)),
+            _mm256_mullo_epi32(bz, _mm256_set1_epi32(BLOCK_PRIMES[2] as i32)),
         );
         let block_bits = bits - 3 * BLOCK_BITS;
         let hashed = _mm256_srl_epi32(
-            _mm256_mullo_epi32(mixed, _mm256_set1_epi32(0x9E37_79B9_u32 as i32)),
+            _mm256_mullo_epi32(mixed, _mm256_set1_epi32(FIBONACCI as i32)),
             _mm_cvtsi32_si128((32 - block_bits) as i32),
         );
         let within = _mm256_set1_epi32((1 << BLOCK_BITS) - 1);
