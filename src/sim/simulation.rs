@@ -587,6 +587,13 @@ impl Simulation {
         self.hierarchy.as_ref().map_or(0, Hierarchy::level_count)
     }
 
+    /// Searches for self-collision pairs and self-collide substeps so far,
+    /// `(searches, substeps)`: fewer searches than substeps where the pair
+    /// list was kept (`None` while self-collision is off).
+    pub fn self_collision_searches(&self) -> Option<(u64, u64)> {
+        self.self_contact.as_ref().map(SelfContact::searches)
+    }
+
     /// What the inextensible projection did in the last substep (`None`
     /// while the cloth is not inextensible).
     pub fn last_projection(&self) -> Option<ProjectionReport> {

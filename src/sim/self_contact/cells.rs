@@ -111,17 +111,22 @@ const CHUNK: usize = 4096;
 
 /// `out[k] = pick(order[k])` for every slot k, on the thread pool with
 /// `parallel`.
-pub(super) fn gather<T: Send>(
+pub(super) fn gather<T: Copy + Default + Send>(
     out: &mut Vec<T>,
     order: &[u32],
     parallel: bool,
     pick: impl Fn(usize) -> T + Sync + Send,
 ) {
-    out.clear();
+    out.resize(order.len(), T::default());
+    let fill = |(out, order): (&mut [T], &[u32])| {
+        for (o, &i) in out.iter_mut().zip(order) {
+            *o = pick(i as usize);
+        }
+    };
     if parallel {
-        out.par_extend(order.par_iter().map(|&i| pick(i as usize)));
+        out.par_chunks_mut(CHUNK).zip(order.par_chunks(CHUNK)).for_each(fill);
     } else {
-        out.extend(order.iter().map(|&i| pick(i as usize)));
+        fill((out, order));
     }
 }
 
@@ -210,47 +215,60 @@ impl Cells {
         }
     }
 
-    /// The slots of [`Self::pairs_after`] for one slot, one cell pair at a
-    /// time.
+    /// The slots of [`Self::pairs_after`] for one slot.
     #[inline(always)]
     fn push_after(&self, slot: usize, radius: f32, near: &mut Vec<u32>) {
-        let p = self.position(slot);
+        self.push_around(self.position(slot), Some(slot), radius, near);
+    }
+
+    /// Appends every slot whose table position is closer than `radius`
+    /// (metres, ≤ s/2) to `p`, in the order of the module docs; `p` need
+    /// not be a slot's position.
+    pub(super) fn push_near(&self, p: Vec3, radius: f32, near: &mut Vec<u32>) {
+        self.push_around(p, None, radius, near);
+    }
+
+    /// The slots closer than `radius` to `p`, one cell pair at a time; with
+    /// `after`, only the slots after it (`p` is its position).
+    #[inline(always)]
+    fn push_around(&self, p: Vec3, after: Option<usize>, radius: f32, near: &mut Vec<u32>) {
         let scaled = p * self.inverse_side;
         let centre = scaled.floor().as_ivec3();
         let toward = (scaled - scaled.floor()).cmplt(Vec3::splat(0.5));
         let side = IVec3::select(toward, IVec3::splat(-1), IVec3::ONE);
         let r2 = radius * radius;
+        // Buckets before the query's own hold only slots before it.
+        let (own, from) = after.map_or((0, 0), |slot| (bucket(centre, self.bits), slot + 1));
         // Along x the two cells are the lower one and the next: within a
         // block their buckets are h and h + 1, one run of slots, tested as
         // one range.
         let low_x = centre.x + side.x.min(0);
         let within = (1 << BLOCK_BITS) - 1;
-        let own = bucket(centre, self.bits);
         for dz in [0, side.z] {
             for dy in [0, side.y] {
                 let low = IVec3::new(low_x, centre.y + dy, centre.z + dz);
                 let h = bucket(low, self.bits);
                 if low.x & within != within {
-                    self.push_run(h, h + 1, own, slot, p, r2, near);
+                    self.push_run(h, h + 1, own, from, p, r2, near);
                 } else {
-                    self.push_run(h, h, own, slot, p, r2, near);
+                    self.push_run(h, h, own, from, p, r2, near);
                     let next = bucket(low + IVec3::X, self.bits);
-                    self.push_run(next, next, own, slot, p, r2, near);
+                    self.push_run(next, next, own, from, p, r2, near);
                 }
             }
         }
     }
 
-    /// Appends the slots after `slot` (in bucket `own`) of buckets
-    /// `first..=last` near `p`.
+    /// Appends the slots from `from` on (in buckets from `own` on) of
+    /// buckets `first..=last` near `p`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn push_run(&self, first: usize, last: usize, own: usize, slot: usize, p: Vec3, r2: f32, near: &mut Vec<u32>) {
+    fn push_run(&self, first: usize, last: usize, own: usize, from: usize, p: Vec3, r2: f32, near: &mut Vec<u32>) {
         if last < own {
-            // Every slot of these buckets comes before `own`'s, so before `slot`.
+            // Every slot of these buckets comes before `own`'s, so before `from`.
             return;
         }
-        let (from, to) = ((self.start[first] as usize).max(slot + 1), self.start[last + 1] as usize);
+        let (from, to) = ((self.start[first] as usize).max(from), self.start[last + 1] as usize);
         let mut lane = from;
         while lane < to {
             let mut hits = self.near_lanes(lane, to, p, r2);

@@ -25,29 +25,33 @@
 //! it keeps particles apart, so layers stay apart where the particle spacing
 //! is about the thickness.
 //!
-//! **Neighbour search.** A hash grid with cells of side 2r, the particles
-//! sorted by cell and their positions copied in that order every substep
-//! (a linear pass; rebuilding once per step would need cells of the step's
-//! whole travel and visit more pairs). Each pair is found once, by the
+//! **Neighbour search.** A hash grid, the particles sorted by cell and
+//! their positions copied in that order. Each pair is found once, by the
 //! query of the particle that comes first in the sorted table: its
-//! candidates are the later particles of the 8 cells its ball of radius r
-//! can reach, tested eight at a time in lanes (`self_contact/cells.rs`,
-//! which shows why no candidate counts twice). No all-pairs loop. The pairs
-//! found are then pushed apart eight at a time in lanes, both ends of a
-//! pair at once (`self_contact/pair.rs`), each end with the bits it gets
-//! when computed alone.
+//! candidates are the later particles of the 8 cells its ball can reach,
+//! tested eight at a time in lanes (`self_contact/cells.rs`, which shows
+//! why no candidate counts twice). No all-pairs loop. The search's pairs
+//! are kept for the substeps after it, with a skin, while few particles
+//! have moved far from where it found them; the particles that have are
+//! searched for again each substep (`self_contact/list.rs`). A cloth that
+//! keeps moving fast searches plainly every substep (cells of side 2r). The
+//! pairs closer than r are then pushed apart eight at a time in lanes, both
+//! ends of a pair at once (`self_contact/pair.rs`), each end with the bits
+//! it gets when computed alone.
 //!
 //! **Determinism.** Corrections are computed for every pair from the same
 //! snapshot of positions (Jacobi) and summed per particle from zero in the
-//! order the pairs were found: first its pairs with particles earlier in
-//! the table (by that particle), then its own query's, in the query's
-//! order. The order depends on neither the thread count nor the SIMD level.
-//! Large cloths search and compute pairs in chunks on the rayon pool; the
-//! sums run in order after them. The phase reads each pair's data
-//! (substep-start positions, weights, rest positions) from copies in the
-//! table's order, so the particles near one another are near in memory.
+//! order the pairs were found: the pairs where it is the later slot (by
+//! the earlier slot), then its own, then a kept list's pairs of movers.
+//! The order depends on neither the thread count nor the SIMD level.
+//! Large cloths search, test and compute pairs in chunks of the table on
+//! the rayon pool, and sum each chunk's slots on the pool too. The phase
+//! reads each pair's data (substep-start positions, weights, rest
+//! positions) from copies in the table's order, so the particles near one
+//! another are near in memory.
 
 mod cells;
+mod list;
 mod pair;
 
 use crate::sim::fast::simd::dispatch;
@@ -56,7 +60,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use cells::{Cells, gather};
+use list::{Candidates, PairList, Plan};
 use pair::{Moves, Slots, pair_corrections};
+
+pub use list::{LIFETIME, MOVERS, SKIN};
 
 /// Cloths of at least this many particles find their corrections on the
 /// thread pool.
@@ -67,13 +74,22 @@ pub const PARALLEL_PARTICLES: usize = 8192;
 pub struct SelfContact {
     rest: Vec<Vec3>,
     cells: Cells,
-    /// Per slot of `cells` (the particles sorted by cell), as the pairs
-    /// read them: position and inverse mass, substep-start position, rest
-    /// position (`[x, y, z, w or 0]`); and the correction.
+    /// The movers' own table (`self_contact/list.rs`).
+    mover_cells: Cells,
+    /// The pairs of the last search, kept while few particles have moved
+    /// far from where it found them (`self_contact/list.rs`).
+    list: PairList,
+    /// Per slot of `cells` (the particles sorted by cell at the last
+    /// search), as the pairs read them: position and inverse mass,
+    /// substep-start position, rest position (`[x, y, z, w or 0]`); and the
+    /// correction.
     slot_point: Vec<[f32; 4]>,
     slot_start: Vec<[f32; 4]>,
     slot_rest: Vec<[f32; 4]>,
     correction: Vec<Vec3>,
+    /// Searches and substeps since the phase was made (for reports).
+    searches: u64,
+    substeps: u64,
     /// Positions, substep-start positions and weights in scene order, for
     /// solvers whose own layout is not scene order.
     pub(crate) x: Vec<Vec3>,
@@ -92,44 +108,135 @@ pub struct SelfContactStep {
     pub parallel: bool,
 }
 
-/// The pairs found by the queries of a run of slots, each pair once, and
-/// what its two slots do to each other.
+/// The pairs of a run of slots that act this substep, each pair once, and
+/// what its two slots do to each other; and the run's candidates when
+/// they are to be kept.
 #[derive(Default)]
 struct Pairs {
     own: Vec<u32>,
     other: Vec<u32>,
     moved_own: Vec<Vec3>,
     moved_other: Vec<Vec3>,
+    /// The `other` ends again, by the chunk of the table they are in
+    /// (stable): chunk t's are `to[ends[t]..ends[t + 1]]`.
+    to: Vec<(u32, Vec3)>,
+    ends: Vec<u32>,
+    kept: Candidates,
+}
+
+/// Where a run's candidate pairs come from this substep.
+#[derive(Clone, Copy)]
+enum Source {
+    /// A search of this radius (metres); r: the plain search, whose pairs
+    /// are all closer than r.
+    Search(f32),
+    /// The kept list, and the movers searched again.
+    List,
 }
 
 dispatch! {
-    /// The pairs of slots `first..first + count` with later slots.
-    fn pairs_of(phase: &SelfContact, first: usize, count: usize, step: &SelfContactStep) -> Pairs
+    /// The pairs of slots `chunk · CHUNK ..` with later slots that act now.
+    fn pairs_of(phase: &SelfContact, chunk: usize, source: Source, step: &SelfContactStep) -> Pairs
         = pairs_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn pairs_body(phase: &SelfContact, first: usize, count: usize, step: &SelfContactStep) -> Pairs {
+fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfContactStep) -> Pairs {
     let mut pairs = Pairs::default();
-    phase.cells.pairs_after(first, count, step.thickness, &mut pairs.own, &mut pairs.other);
+    let first = chunk * CHUNK;
+    let count = CHUNK.min(phase.slot_point.len() - first);
+    let point = &phase.slot_point;
     // Two pinned particles do not touch each other (w_i + w_j = 0).
-    let free = |slot: u32| phase.slot_point[slot as usize][3] > 0.0;
-    if !(first..first + count).all(|slot| free(slot as u32)) {
-        let mut kept = 0;
-        for k in 0..pairs.own.len() {
-            if free(pairs.own[k]) || free(pairs.other[k]) {
-                (pairs.own[kept], pairs.other[kept]) = (pairs.own[k], pairs.other[k]);
-                kept += 1;
+    let free = |slot: u32| point[slot as usize][3] > 0.0;
+    // Closer than r now, with a margin for rounding (the rule gives nothing
+    // to the extra pairs: |d| ≥ r ≥ d_min); not both pinned.
+    let r2 = step.thickness * step.thickness * (1.0 + 1e-4);
+    let acts = |i: u32, j: u32| {
+        let (a, b) = (point[i as usize], point[j as usize]);
+        let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < r2 && (a[3] > 0.0 || b[3] > 0.0)
+    };
+    match source {
+        Source::Search(radius) if radius == step.thickness => {
+            phase.cells.pairs_after(first, count, radius, &mut pairs.own, &mut pairs.other);
+            if !(first..first + count).all(|slot| free(slot as u32)) {
+                let mut kept = 0;
+                for k in 0..pairs.own.len() {
+                    if free(pairs.own[k]) || free(pairs.other[k]) {
+                        (pairs.own[kept], pairs.other[kept]) = (pairs.own[k], pairs.other[k]);
+                        kept += 1;
+                    }
+                }
+                pairs.own.truncate(kept);
+                pairs.other.truncate(kept);
             }
         }
-        pairs.own.truncate(kept);
-        pairs.other.truncate(kept);
+        Source::Search(radius) => {
+            let kept = &mut pairs.kept;
+            phase.cells.pairs_after(first, count, radius, &mut kept.own, &mut kept.other);
+            for (&i, &j) in kept.own.iter().zip(&kept.other) {
+                if acts(i, j) {
+                    pairs.own.push(i);
+                    pairs.other.push(j);
+                }
+            }
+        }
+        Source::List => {
+            let list = &phase.list;
+            let candidates = &list.chunks[chunk];
+            let mover = &list.mover;
+            for (&i, &j) in candidates.own.iter().zip(&candidates.other) {
+                if !mover[i as usize] && !mover[j as usize] && acts(i, j) {
+                    pairs.own.push(i);
+                    pairs.other.push(j);
+                }
+            }
+            // Each mover of the run against the others in the table (the
+            // movers among them are paired in `mover_pairs`).
+            let reach = step.thickness + list.skin;
+            let mut near = Vec::new();
+            for k in first..first + count {
+                if mover[k] {
+                    near.clear();
+                    let p = point[k];
+                    phase.cells.push_near(Vec3::new(p[0], p[1], p[2]), reach, &mut near);
+                    for &j in &near {
+                        if !mover[j as usize] && acts(k as u32, j) {
+                            pairs.own.push(k as u32);
+                            pairs.other.push(j);
+                        }
+                    }
+                }
+            }
+        }
     }
+    corrections(phase, pairs, step)
+}
+
+/// `pairs` with the moves of both ends of each pair.
+fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep) -> Pairs {
     pairs.moved_own = vec![Vec3::ZERO; pairs.own.len()];
     pairs.moved_other = vec![Vec3::ZERO; pairs.own.len()];
     let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest };
     let moves = Moves { own: &mut pairs.moved_own, other: &mut pairs.moved_other };
     pair_corrections(&slots, &pairs.own, &pairs.other, moves, step);
+    // A counting sort of the other ends by chunk, so each chunk's sums can
+    // run on their own.
+    let chunks = phase.slot_point.len().div_ceil(CHUNK);
+    pairs.ends = vec![0; chunks + 1];
+    for &j in &pairs.other {
+        pairs.ends[j as usize / CHUNK + 1] += 1;
+    }
+    for t in 0..chunks {
+        pairs.ends[t + 1] += pairs.ends[t];
+    }
+    let mut next = pairs.ends.clone();
+    pairs.to = vec![(0, Vec3::ZERO); pairs.other.len()];
+    for (&j, &moved) in pairs.other.iter().zip(&pairs.moved_other) {
+        let at = &mut next[j as usize / CHUNK];
+        pairs.to[*at as usize] = (j, moved);
+        *at += 1;
+    }
     pairs
 }
 
@@ -142,6 +249,12 @@ impl SelfContact {
         Self { rest: rest.to_vec(), ..Self::default() }
     }
 
+    /// Searches for pairs and substeps since the phase was made: how often
+    /// the kept list spared a search.
+    pub fn searches(&self) -> (u64, u64) {
+        (self.searches, self.substeps)
+    }
+
     /// The phase on positions `x` (scene order) that started the substep at
     /// `x0`, with inverse masses `w`.
     pub fn apply(&mut self, x: &mut [Vec3], x0: &[Vec3], w: &[f32], step: &SelfContactStep) {
@@ -150,37 +263,85 @@ impl SelfContact {
         if n < 2 || r <= 0.0 {
             return;
         }
+        debug_assert_eq!(n, self.rest.len(), "one rest position a particle");
+        let parallel = step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
         // Motion per substep at most r/4.
         let limit = 0.25 * r;
-        for i in 0..n {
-            let d = x[i] - x0[i];
-            let len = d.length();
-            if w[i] > 0.0 && len > limit {
-                x[i] = x0[i] + d * (limit / len);
+        let bound = |((x, x0), w): ((&mut [Vec3], &[Vec3]), &[f32])| {
+            for ((x, &x0), &w) in x.iter_mut().zip(x0).zip(w) {
+                let d = *x - x0;
+                let len = d.length();
+                if w > 0.0 && len > limit {
+                    *x = x0 + d * (limit / len);
+                }
             }
+        };
+        if parallel {
+            x.par_chunks_mut(CHUNK * 8).zip(x0.par_chunks(CHUNK * 8)).zip(w.par_chunks(CHUNK * 8)).for_each(bound);
+        } else {
+            bound(((x, x0), w));
         }
-        let parallel = step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
-        self.cells.build(x, 2.0 * r, parallel);
-        let order = &self.cells.order;
-        let row = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
-        let (x_now, rest): (&[Vec3], &[Vec3]) = (x, &self.rest);
-        gather(&mut self.slot_point, order, parallel, |i| row(x_now[i], w[i]));
-        gather(&mut self.slot_start, order, parallel, |i| row(x0[i], 0.0));
-        gather(&mut self.slot_rest, order, parallel, |i| row(rest[i], 0.0));
+        self.substeps += 1;
+        let x_now: &[Vec3] = x;
+        let plan = if self.list.serves(&self.cells, r, n) {
+            gather(&mut self.slot_point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
+            self.list.plan(&self.slot_point, &self.cells, parallel)
+        } else {
+            Plan::Search { skin: 0.0 }
+        };
+        let source = match plan {
+            Plan::Keep => Source::List,
+            Plan::Search { skin } => {
+                self.searches += 1;
+                self.cells.build(x_now, 2.0 * (r + skin), parallel);
+                let rest = &self.rest;
+                gather(&mut self.slot_rest, &self.cells.order, parallel, |i| row(rest[i], 0.0));
+                gather(&mut self.slot_point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
+                Source::Search(r + skin)
+            }
+        };
+        gather(&mut self.slot_start, &self.cells.order, parallel, |i| row(x0[i], 0.0));
         let this = &*self;
-        let find = |c: usize| pairs_of(this, c * CHUNK, CHUNK.min(n - c * CHUNK), step);
+        let find = |c: usize| pairs_of(this, c, source, step);
         let chunks = n.div_ceil(CHUNK);
-        let found: Vec<Pairs> =
+        let mut found: Vec<Pairs> =
             if parallel { (0..chunks).into_par_iter().map(find).collect() } else { (0..chunks).map(find).collect() };
+        match plan {
+            Plan::Search { skin } => {
+                let kept = found.iter_mut().map(|pairs| std::mem::take(&mut pairs.kept)).collect();
+                self.list.searched(r, skin, kept);
+            }
+            Plan::Keep => found.push(self.mover_pairs(step)),
+        }
         // Each slot sums its pairs from zero in the order they were found:
-        // those with earlier slots (by the earlier slot), then its own.
+        // the pairs where it is the other end (by the run that found them),
+        // then those it owns. For a search that is: its pairs with earlier
+        // slots (by the earlier slot), then its own query's. The movers'
+        // pairs of a kept list come last.
         let mut correction = std::mem::take(&mut self.correction);
-        correction.clear();
         correction.resize(n, Vec3::ZERO);
-        for pairs in &found {
-            for k in 0..pairs.own.len() {
-                correction[pairs.own[k] as usize] += pairs.moved_own[k];
-                correction[pairs.other[k] as usize] += pairs.moved_other[k];
+        let sum = |(t, out): (usize, &mut [Vec3])| {
+            out.fill(Vec3::ZERO);
+            let base = t * CHUNK;
+            for pairs in &found {
+                for &(j, moved) in &pairs.to[pairs.ends[t] as usize..pairs.ends[t + 1] as usize] {
+                    out[j as usize - base] += moved;
+                }
+            }
+            if let Some(pairs) = found.get(t) {
+                for (&i, &moved) in pairs.own.iter().zip(&pairs.moved_own) {
+                    out[i as usize - base] += moved;
+                }
+            }
+        };
+        if parallel {
+            correction.par_chunks_mut(CHUNK).enumerate().for_each(sum);
+        } else {
+            correction.chunks_mut(CHUNK).enumerate().for_each(sum);
+        }
+        for pairs in &found[chunks..] {
+            for (&i, &moved) in pairs.own.iter().zip(&pairs.moved_own) {
+                correction[i as usize] += moved;
             }
         }
         for (&i, c) in self.cells.order.iter().zip(&correction) {
@@ -188,6 +349,34 @@ impl SelfContact {
         }
         self.correction = correction;
     }
+
+    /// The pairs of two movers that act now: a table of the movers alone,
+    /// at their present positions, searched with radius r.
+    fn mover_pairs(&mut self, step: &SelfContactStep) -> Pairs {
+        let movers = &self.list.movers;
+        let mut pairs = Pairs::default();
+        if movers.len() >= 2 {
+            let point = &self.slot_point;
+            let at: Vec<Vec3> = movers.iter().map(|&k| Vec3::from_slice(&point[k as usize][..3])).collect();
+            self.mover_cells.build(&at, 2.0 * step.thickness, false);
+            let (mut own, mut other) = (Vec::new(), Vec::new());
+            self.mover_cells.pairs_after(0, at.len(), step.thickness, &mut own, &mut other);
+            let slot = |s: u32| movers[self.mover_cells.order[s as usize] as usize];
+            for (&a, &b) in own.iter().zip(&other) {
+                let (i, j) = (slot(a), slot(b));
+                if point[i as usize][3] > 0.0 || point[j as usize][3] > 0.0 {
+                    pairs.own.push(i);
+                    pairs.other.push(j);
+                }
+            }
+        }
+        corrections(self, pairs, step)
+    }
+}
+
+/// A particle's row in the slot tables: `[x, y, z, w]`.
+fn row(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
 }
 
 #[cfg(test)]
@@ -234,6 +423,75 @@ mod tests {
         assert!((x[0].y + 0.005).abs() < 1e-7, "{x:?}");
     }
 
+    /// Two 30 × 30 sheets 1.2 cm apart in x and z, the upper 1.1 cm above
+    /// the lower (r = 1 cm: no pair yet), as rest shape and start.
+    fn two_sheets() -> (Vec<Vec3>, Vec<Vec3>) {
+        let mut x = Vec::new();
+        for layer in 0..2 {
+            for a in 0..30 {
+                for b in 0..30 {
+                    let offset = 0.006 * layer as f32;
+                    x.push(Vec3::new(a as f32 * 0.012 + offset, 0.011 * layer as f32, b as f32 * 0.012 + offset));
+                }
+            }
+        }
+        // At rest the layers are a metre apart: d_min = r between them.
+        let rest = x.iter().enumerate().map(|(i, p)| if i >= 900 { *p + Vec3::Y } else { *p }).collect();
+        (rest, x)
+    }
+
+    #[test]
+    fn a_kept_list_gives_what_a_search_every_substep_gives() {
+        // Substep k: every particle jitters by up to 10 µm, and two 5 × 5
+        // patches, one of each sheet and above each other, close in by
+        // 2 mm a substep from k = 3 (under the r/4 limit). From k = 5 their
+        // particles are movers (travel > s/2 = 2.5 mm); the upper patch
+        // reaches the still lower sheet around it (mover against
+        // non-mover) and the lower patch (mover against mover).
+        let (rest, start) = two_sheets();
+        let r = 0.01;
+        let step = SelfContactStep { thickness: r, friction: 0.3, parallel: false };
+        let w: Vec<f32> = (0..start.len()).map(|i| if i % 7 == 0 { 0.0 } else { 1.0 }).collect();
+        let patch = |i: usize| (12..17).contains(&(i % 900 / 30)) && (12..17).contains(&(i % 30));
+        let at = |k: usize| -> Vec<Vec3> {
+            start
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let jitter = 1e-5 * ((i * 7 + k * 13) % 11) as f32 / 11.0;
+                    let closing = 0.002 * k.saturating_sub(2) as f32;
+                    let dy = if !patch(i) {
+                        0.0
+                    } else if i >= 900 {
+                        -closing
+                    } else {
+                        0.4 * closing
+                    };
+                    *p + Vec3::new(jitter, dy, -jitter)
+                })
+                .collect()
+        };
+        let mut kept = SelfContact::new(&rest);
+        let mut pushed = 0;
+        for k in 1..10 {
+            let (x0, x) = (at(k - 1), at(k));
+            let (mut listed, mut searched) = (x.clone(), x.clone());
+            kept.apply(&mut listed, &x0, &w, &step);
+            SelfContact::new(&rest).apply(&mut searched, &x0, &w, &step);
+            for (i, (a, b)) in listed.iter().zip(&searched).enumerate() {
+                // Only the order of a particle's sum differs: a few ulps of
+                // coordinates below 0.4 m (an ulp is 3e-8 there); a missed
+                // pair would leave its push, ≥ 1e-4 here.
+                assert!(a.distance(*b) < 1e-7, "substep {k}, particle {i}: {a} against {b}");
+            }
+            pushed += listed.iter().zip(&x).filter(|(a, b)| a.distance(**b) > 1e-4).count();
+        }
+        let (searches, substeps) = kept.searches();
+        assert_eq!(substeps, 9);
+        assert!(searches <= 3, "{searches} searches: the list was kept");
+        assert!(pushed > 100, "{pushed} particle-substeps pushed: the patches met");
+    }
+
     #[test]
     fn threads_give_the_same_bits() {
         // A 100 × 100 sheet folded onto itself at 3 mm: every thread count
@@ -247,10 +505,15 @@ mod tests {
         let folded: Vec<Vec3> =
             rest.iter().map(|p| if p.x > 0.495 { Vec3::new(0.99 - p.x, 0.003, p.z + 0.001) } else { *p }).collect();
         let w = vec![1.0; rest.len()];
+        // Four substeps: a plain search, then the list (kept, with movers).
         let run = |parallel| {
             let mut sc = SelfContact::new(&rest);
             let mut x = folded.clone();
-            sc.apply(&mut x, &folded, &w, &SelfContactStep { thickness: 0.01, friction: 0.3, parallel });
+            for _ in 0..4 {
+                let x0 = x.clone();
+                sc.apply(&mut x, &x0, &w, &SelfContactStep { thickness: 0.01, friction: 0.3, parallel });
+            }
+            assert!(sc.searches().0 < 4, "{:?}: the list was kept", sc.searches());
             x
         };
         let (one, many) = (run(false), run(true));

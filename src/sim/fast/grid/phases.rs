@@ -7,7 +7,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
-use super::{GridLayout, Slot, Tile};
+use super::{GridLayout, Location, Slot, Tile};
 use crate::sim::contact::ContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, lane, settle, tether};
 use crate::sim::fast::simd::dispatch;
@@ -112,14 +112,25 @@ impl Solver for GridLayout {
         x.resize(n, Vec3::ZERO);
         x0.resize(n, Vec3::ZERO);
         w.resize(n, 0.0);
-        for (i, loc) in self.locations.iter().enumerate() {
-            let tile = &self.tiles[loc.tile as usize];
-            let (s, l) = (loc.slot as usize, loc.lane as usize);
-            x[i] = lane(&tile.position[s], l);
-            x0[i] = lane(&tile.predicted[s], l) - lane(&tile.displacement[s], l);
-            w[i] = tile.weight[s].0[l];
+        let parallel = step.parallel && self.parallel();
+        let tiles = &self.tiles;
+        let pick = |locations: &[Location], x: &mut [Vec3], x0: &mut [Vec3], w: &mut [f32]| {
+            for (k, loc) in locations.iter().enumerate() {
+                let tile = &tiles[loc.tile as usize];
+                let (s, l) = (loc.slot as usize, loc.lane as usize);
+                x[k] = lane(&tile.position[s], l);
+                x0[k] = lane(&tile.predicted[s], l) - lane(&tile.displacement[s], l);
+                w[k] = tile.weight[s].0[l];
+            }
+        };
+        const CHUNK: usize = 8192;
+        if parallel {
+            let (out, rest) = (x.par_chunks_mut(CHUNK), x0.par_chunks_mut(CHUNK).zip(w.par_chunks_mut(CHUNK)));
+            self.locations.par_chunks(CHUNK).zip(out).zip(rest).for_each(|((l, x), (x0, w))| pick(l, x, x0, w));
+        } else {
+            pick(&self.locations, &mut x, &mut x0, &mut w);
         }
-        phase.apply(&mut x, &x0, &w, &SelfContactStep { parallel: step.parallel && self.parallel(), ..*step });
+        phase.apply(&mut x, &x0, &w, &SelfContactStep { parallel, ..*step });
         for (i, loc) in self.locations.iter().enumerate() {
             let position = &mut self.tiles[loc.tile as usize].position[loc.slot as usize];
             for k in 0..3 {
