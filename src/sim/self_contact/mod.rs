@@ -87,6 +87,8 @@ pub struct SelfContact {
     slot_start: Vec<[f32; 4]>,
     slot_rest: Vec<[f32; 4]>,
     correction: Vec<Vec3>,
+    /// Particle → slot: the inverse of the table's order.
+    slot_of: Vec<u32>,
     /// Searches and substeps since the phase was made (for reports).
     searches: u64,
     substeps: u64,
@@ -151,11 +153,6 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
     // Closer than r now, with a margin for rounding (the rule gives nothing
     // to the extra pairs: |d| ≥ r ≥ d_min); not both pinned.
     let r2 = step.thickness * step.thickness * (1.0 + 1e-4);
-    let acts = |i: u32, j: u32| {
-        let (a, b) = (point[i as usize], point[j as usize]);
-        let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-        d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < r2 && (a[3] > 0.0 || b[3] > 0.0)
-    };
     match source {
         Source::Search(radius) if radius == step.thickness => {
             phase.cells.pairs_after(first, count, radius, &mut pairs.own, &mut pairs.other);
@@ -172,25 +169,16 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
             }
         }
         Source::Search(radius) => {
-            let kept = &mut pairs.kept;
+            let mut kept = Candidates::default();
             phase.cells.pairs_after(first, count, radius, &mut kept.own, &mut kept.other);
-            for (&i, &j) in kept.own.iter().zip(&kept.other) {
-                if acts(i, j) {
-                    pairs.own.push(i);
-                    pairs.other.push(j);
-                }
-            }
+            push_close::<false>(&kept, point, r2, &[], &mut pairs);
+            pairs.kept = kept;
         }
         Source::List => {
             let list = &phase.list;
             let candidates = &list.chunks[chunk];
             let mover = &list.mover;
-            for (&i, &j) in candidates.own.iter().zip(&candidates.other) {
-                if !mover[i as usize] && !mover[j as usize] && acts(i, j) {
-                    pairs.own.push(i);
-                    pairs.other.push(j);
-                }
-            }
+            push_close::<true>(candidates, point, r2, mover, &mut pairs);
             // Each mover of the run against the others in the table (the
             // movers among them are paired in `mover_pairs`).
             let reach = step.thickness + list.skin;
@@ -201,7 +189,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
                     let p = point[k];
                     phase.cells.push_near(Vec3::new(p[0], p[1], p[2]), reach, &mut near);
                     for &j in &near {
-                        if !mover[j as usize] && acts(k as u32, j) {
+                        if !mover[j as usize] && acts(point, r2, k as u32, j) {
                             pairs.own.push(k as u32);
                             pairs.other.push(j);
                         }
@@ -211,6 +199,41 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
         }
     }
     corrections(phase, pairs, step)
+}
+
+/// Whether slots i and j are closer than √`r2` and not both pinned.
+#[inline(always)]
+fn acts(point: &[[f32; 4]], r2: f32, i: u32, j: u32) -> bool {
+    let (a, b) = (point[i as usize], point[j as usize]);
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < r2) & ((a[3] > 0.0) | (b[3] > 0.0))
+}
+
+/// Appends to `pairs` the candidates that act now ([`acts`]), in order,
+/// leaving out with `MOVERS` those with an end marked in `mover`. Every
+/// candidate is written and the end moves past it when kept: about half
+/// are kept, so a branch would be mispredicted about half the time.
+#[inline(always)]
+fn push_close<const MOVERS: bool>(
+    candidates: &Candidates,
+    point: &[[f32; 4]],
+    r2: f32,
+    mover: &[bool],
+    pairs: &mut Pairs,
+) {
+    let (own, other) = (&mut pairs.own, &mut pairs.other);
+    let start = own.len();
+    own.resize(start + candidates.own.len(), 0);
+    other.resize(start + candidates.own.len(), 0);
+    let mut end = start;
+    for (&i, &j) in candidates.own.iter().zip(&candidates.other) {
+        own[end] = i;
+        other[end] = j;
+        let still = !MOVERS || !mover[i as usize] & !mover[j as usize];
+        end += usize::from(still & acts(point, r2, i, j));
+    }
+    own.truncate(end);
+    other.truncate(end);
 }
 
 /// `pairs` with the moves of both ends of each pair.
@@ -296,6 +319,10 @@ impl SelfContact {
                 self.cells.build(x_now, 2.0 * (r + skin), parallel);
                 let rest = &self.rest;
                 gather(&mut self.slot_rest, &self.cells.order, parallel, |i| row(rest[i], 0.0));
+                self.slot_of.resize(n, 0);
+                for (k, &i) in self.cells.order.iter().enumerate() {
+                    self.slot_of[i as usize] = k as u32;
+                }
                 gather(&mut self.slot_point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
                 Source::Search(r + skin)
             }
@@ -344,8 +371,17 @@ impl SelfContact {
                 correction[i as usize] += moved;
             }
         }
-        for (&i, c) in self.cells.order.iter().zip(&correction) {
-            x[i as usize] += *c;
+        // Each particle takes its slot's sum, in scene order.
+        let (slot_of, sums) = (&self.slot_of, &correction);
+        let take = |(c, x): (usize, &mut [Vec3])| {
+            for (x, &k) in x.iter_mut().zip(&slot_of[c * CHUNK * 8..]) {
+                *x += sums[k as usize];
+            }
+        };
+        if parallel {
+            x.par_chunks_mut(CHUNK * 8).enumerate().for_each(take);
+        } else {
+            x.chunks_mut(CHUNK * 8).enumerate().for_each(take);
         }
         self.correction = correction;
     }
@@ -444,8 +480,8 @@ mod tests {
     fn a_kept_list_gives_what_a_search_every_substep_gives() {
         // Substep k: every particle jitters by up to 10 µm, and two 5 × 5
         // patches, one of each sheet and above each other, close in by
-        // 2 mm a substep from k = 3 (under the r/4 limit). From k = 5 their
-        // particles are movers (travel > s/2 = 2.5 mm); the upper patch
+        // 2 mm a substep from k = 3 (under the r/4 limit). From k = 4 their
+        // particles are movers (travel > s/2 = 1.25 mm); the upper patch
         // reaches the still lower sheet around it (mover against
         // non-mover) and the lower patch (mover against mover).
         let (rest, start) = two_sheets();
