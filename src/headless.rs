@@ -53,6 +53,10 @@ pub struct RunSummary {
     /// With inextensible edges: the Newton iterations per step, mean over
     /// the run (of each step's last substep).
     pub newton: Option<f64>,
+    /// With self-collision: the searches for pairs in this run and the
+    /// substeps, `(searches, substeps)`: fewer searches where the pairs were
+    /// kept between substeps ([`crate::sim::self_contact`]).
+    pub self_collision: Option<(u64, u64)>,
     /// Kinetic energy of the free particles at the end, joules.
     pub kinetic_energy: f64,
     /// What is absurd about the end state, if anything ([`crate::sim::health`]).
@@ -91,6 +95,9 @@ impl std::fmt::Display for RunSummary {
         )?;
         if let Some(iterations) = self.newton {
             writeln!(f, "newton iterations    {iterations:.2} per step, mean (inextensible)")?;
+        }
+        if let Some((searches, substeps)) = self.self_collision {
+            writeln!(f, "self-collision       {searches} searches in {substeps} substeps (pairs kept between)")?;
         }
         write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)?;
         if let Some(warning) = &self.warning {
@@ -164,6 +171,7 @@ pub fn run(
     let mut done = 0;
     let mut history = crate::sim::StrainHistory::default();
     let mut newton = 0u64;
+    let searches_before = sim.self_collision_searches();
     while done < steps {
         let n = chunk.min(steps - done);
         for _ in 0..n {
@@ -200,6 +208,10 @@ pub fn run(
         edge_strain: sim.edge_strain(),
         edge_strain_over_run: (history.mean_max(), history.worst_max),
         newton: sim.last_projection().map(|_| newton as f64 / steps.max(1) as f64),
+        self_collision: sim.self_collision_searches().map(|(searches, substeps)| {
+            let (s0, n0) = searches_before.unwrap_or((0, 0));
+            (searches.saturating_sub(s0), substeps.saturating_sub(n0))
+        }),
         kinetic_energy: sim.kinetic_energy(),
         warning: crate::sim::health::check(sim, sim.edge_strain().max).map(|a| a.to_string()),
     })

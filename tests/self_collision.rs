@@ -109,3 +109,23 @@ fn the_upper_sheet_stays_above_the_lower_one() {
     let without = lowest_clearance(&settled("two-sheets", false, SolverKind::Fast, 180));
     assert!(without < 0.25 * r, "without self-collision the sheets should mix, yet the clearance is {without} m");
 }
+
+#[test]
+fn a_settled_pile_keeps_its_pairs_and_a_falling_strip_searches_every_substep() {
+    // While the strip falls (its first 0.5 s) every particle moves by about
+    // the same amount each substep, so nearly every substep searches anew;
+    // once it lies in a pile few particles move and the pairs are kept
+    // for many substeps. `drape run` reports both counts.
+    let s = scene::load("pile").unwrap();
+    let mut sim = s.simulation().unwrap();
+    let falling = drape::headless::run(&mut sim, 30, None, |_| {}).unwrap();
+    sim.advance(210).unwrap();
+    let settled = drape::headless::run(&mut sim, 60, None, |_| {}).unwrap();
+    let (fall_searches, fall_substeps) = falling.self_collision.expect("self-collision is on");
+    let (rest_searches, rest_substeps) = settled.self_collision.expect("self-collision is on");
+    eprintln!("falling {fall_searches}/{fall_substeps}, settled {rest_searches}/{rest_substeps}");
+    assert_eq!((fall_substeps, rest_substeps), (30 * 8, 60 * 8));
+    assert!(fall_searches * 10 >= fall_substeps * 9, "falling: {fall_searches} searches in {fall_substeps}");
+    assert!(rest_searches * 4 <= rest_substeps, "settled: {rest_searches} searches in {rest_substeps}");
+    assert!(format!("{settled}").contains(&format!("{rest_searches} searches in 480 substeps")));
+}

@@ -260,6 +260,15 @@ impl Orientation {
         if self.flipped { (c, rows - 1 - r) } else { (c, r) }
     }
 
+    /// The scene particle at internal (column, row): the inverse of
+    /// [`Self::cell`].
+    fn index(&self, c: usize, r: usize) -> usize {
+        let rows = self.size().1;
+        let r = if self.flipped { rows - 1 - r } else { r };
+        let (c, r) = if self.transposed { (r, c) } else { (c, r) };
+        r * self.shape.columns as usize + c
+    }
+
     /// The orientation whose sweep starts nearest the fixed particles (their
     /// mean row, as a share of the rows, is smallest), among those with at
     /// least 17 columns so a block has 3 or more. Ties keep the scene's own.

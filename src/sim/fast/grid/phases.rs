@@ -131,11 +131,25 @@ impl Solver for GridLayout {
             pick(&self.locations, &mut x, &mut x0, &mut w);
         }
         phase.apply(&mut x, &x0, &w, &SelfContactStep { parallel, ..*step });
-        for (i, loc) in self.locations.iter().enumerate() {
-            let position = &mut self.tiles[loc.tile as usize].position[loc.slot as usize];
-            for k in 0..3 {
-                position[k].0[loc.lane as usize] = x[i][k];
+        // Each tile takes its own particles' positions back.
+        let (orientation, block, x_new) = (self.orientation, self.block, &x);
+        let columns = orientation.size().0;
+        let write = |(t, tile): (usize, &mut Tile)| {
+            for (s, position) in tile.position.iter_mut().enumerate() {
+                for (l, c) in (0..LANES).map(|l| (l, (t * LANES + l) * block + s % block)) {
+                    if c < columns {
+                        let i = orientation.index(c, s / block);
+                        for k in 0..3 {
+                            position[k].0[l] = x_new[i][k];
+                        }
+                    }
+                }
             }
+        };
+        if parallel {
+            self.tiles.par_iter_mut().enumerate().for_each(write);
+        } else {
+            self.tiles.iter_mut().enumerate().for_each(write);
         }
         (phase.x, phase.x0, phase.w) = (x, x0, w);
     }

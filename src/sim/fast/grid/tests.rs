@@ -224,3 +224,21 @@ fn seam_groups_are_independent_and_keep_each_rows_order() {
     }
     assert_eq!(seams_seen, 4 * (63 * 5 + 3));
 }
+
+#[test]
+fn index_undoes_cell_in_every_orientation() {
+    // 5 × 3 cloth: each of the four orientations maps the 15 particles to
+    // 15 distinct internal cells, and `index` takes each back.
+    let shape = crate::sim::mesh::GridShape { columns: 5, rows: 3 };
+    for (transposed, flipped) in [(false, false), (false, true), (true, false), (true, true)] {
+        let o = Orientation { shape, transposed, flipped };
+        let (columns, rows) = o.size();
+        let cells: std::collections::HashSet<_> = (0..15).map(|i| o.cell(i)).collect();
+        assert_eq!(cells.len(), 15);
+        assert!(cells.iter().all(|&(c, r)| c < columns && r < rows));
+        for i in 0..15 {
+            let (c, r) = o.cell(i);
+            assert_eq!(o.index(c, r), i, "transposed {transposed}, flipped {flipped}");
+        }
+    }
+}
