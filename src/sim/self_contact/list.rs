@@ -120,15 +120,15 @@ impl PairList {
     pub(super) fn plan(&mut self, point: &[[f32; 4]], cells: &Cells, parallel: bool) -> Plan {
         let n = point.len();
         let cap = n / MOVERS;
-        let skin = SKIN * self.thickness;
-        let reach = MARGIN * 0.5 * skin;
-        // Squared travel.
+        // The travel that makes a mover, for skin s.
+        let reach = |s: f32| MARGIN * 0.5 * s;
+        // Squared travel since the search.
         let travel2 = |k: usize| {
             let p = point[k];
             Vec3::new(p[0], p[1], p[2]).distance_squared(cells.position(k))
         };
         if self.skin > 0.0 {
-            let reach2 = reach * reach;
+            let reach2 = reach(self.skin) * reach(self.skin);
             self.mover.resize(n, false);
             let mark = |(c, mover): (usize, &mut [bool])| {
                 for (l, m) in mover.iter_mut().enumerate() {
@@ -147,9 +147,10 @@ impl PairList {
                 return Plan::Keep;
             }
         }
-        // Movers within LIFETIME substeps at the pace since the search
-        // (NaN travel, a non-finite position, counts as one).
-        let soon = reach / LIFETIME * self.served as f32;
+        // Movers of a list with the skin within LIFETIME substeps, at the
+        // pace since the search (NaN travel, a non-finite position, counts).
+        let skin = SKIN * self.thickness;
+        let soon = reach(skin) / LIFETIME * self.served as f32;
         let count = |k: usize| usize::from(beyond(travel2(k), soon * soon));
         let movers = if parallel { (0..n).into_par_iter().map(count).sum() } else { (0..n).map(count).sum::<usize>() };
         Plan::Search { skin: if movers <= cap { skin } else { 0.0 } }
