@@ -44,6 +44,10 @@ pub(super) struct Slots<'a> {
     pub(super) start: &'a [[f32; 4]],
     /// X: `[x, y, z, 0]`.
     pub(super) rest: &'a [[f32; 4]],
+    /// With `Some(marked)`: a pair with an end marked, or with both ends
+    /// pinned, gives nothing (a kept list's pairs, computed without
+    /// testing them first: `self_contact/list.rs`).
+    pub(super) skip: Option<&'a [bool]>,
 }
 
 /// The moves of pair k's two slots, `own[k]` and `other[k]`.
@@ -54,7 +58,7 @@ pub(super) struct Moves<'a> {
 
 /// What slots `own[k]` and `other[k]` do to each other, for each k, into
 /// `out` (every slice the same length; the two slots of a pair not both
-/// pinned).
+/// pinned, unless `slots.skip` is given).
 #[allow(unsafe_code)]
 pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
     #[cfg(target_arch = "x86_64")]
@@ -74,6 +78,8 @@ trait Rows: Real {
     fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4];
     /// The eight values.
     fn values(self) -> [f32; LANES];
+    /// Lanes holding the eight values.
+    fn from_values(values: [f32; LANES]) -> Self;
 }
 
 impl Rows for F32x8 {
@@ -91,6 +97,10 @@ impl Rows for F32x8 {
     #[inline(always)]
     fn values(self) -> [f32; LANES] {
         self.0
+    }
+    #[inline(always)]
+    fn from_values(values: [f32; LANES]) -> Self {
+        F32x8(values)
     }
 }
 
@@ -119,6 +129,32 @@ fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: Moves
             wj,
             step,
         );
+        let [moved_i, moved_j] = match slots.skip {
+            None => [moved_i, moved_j],
+            Some(marked) => {
+                let zero = T::splat(0.0);
+                let mut unmarked = [0.0; LANES];
+                for (l, u) in unmarked.iter_mut().enumerate() {
+                    *u = f32::from(u8::from(!marked[a[l]] & !marked[b[l]]));
+                }
+                let keep = T::if_greater(wi + wj, zero, T::from_values(unmarked), zero);
+                // Written out: a closure mapped over the points was left a
+                // call per select.
+                let half = T::splat(0.5);
+                [
+                    [
+                        T::if_greater(keep, half, moved_i[0], zero),
+                        T::if_greater(keep, half, moved_i[1], zero),
+                        T::if_greater(keep, half, moved_i[2], zero),
+                    ],
+                    [
+                        T::if_greater(keep, half, moved_j[0], zero),
+                        T::if_greater(keep, half, moved_j[1], zero),
+                        T::if_greater(keep, half, moved_j[2], zero),
+                    ],
+                ]
+            }
+        };
         for (moved, out) in [(moved_i, out_i), (moved_j, out_j)] {
             let [mx, my, mz] = moved.map(T::values);
             for (l, out) in out.iter_mut().enumerate() {
@@ -193,6 +229,10 @@ mod avx2 {
         #[inline(always)]
         fn values(self) -> [f32; LANES] {
             self.lanes()
+        }
+        #[inline(always)]
+        fn from_values(values: [f32; LANES]) -> Self {
+            Avx::from(values)
         }
     }
 
@@ -285,7 +325,7 @@ mod tests {
         let point: Vec<[f32; 4]> = x.iter().zip(&w).map(|(&v, &w)| row(v, w)).collect();
         let start: Vec<[f32; 4]> = x0.iter().map(|&v| row(v, 0.0)).collect();
         let rests: Vec<[f32; 4]> = rest.iter().map(|&v| row(v, 0.0)).collect();
-        let slots = Slots { point: &point, start: &start, rest: &rests };
+        let slots = Slots { point: &point, start: &start, rest: &rests, skip: None };
         let other: Vec<u32> = (1..x.len() as u32).collect();
         let own = vec![0u32; other.len()];
         let mut moved = vec![Vec3::NAN; other.len()];
@@ -315,5 +355,44 @@ mod tests {
         // The kinetic pair (w_j = 2): j takes two thirds of the push, along
         // +y: 2/3 · (1 cm − 6 mm).
         assert!((moved_j[1].y - 2.0 / 3.0 * 0.004).abs() < 1e-6, "{:?}", moved_j[1]);
+    }
+
+    #[test]
+    fn marked_ends_and_pinned_pairs_give_nothing_when_asked() {
+        // Slot 0 against slots 1..=4, each 4 mm away (r = 1 cm): every pair
+        // is pushed. Marking slot 2, and pinning slots 0 and 4 after the
+        // first run, leaves pairs 0–1 and 0–3 (slot 0 pinned, its partner
+        // free) with the bits they had; 0–2 (marked) and 0–4 (both pinned)
+        // give exactly nothing, where 0/0 shares would otherwise give NaN.
+        let r = 0.01;
+        let p = Vec3::new(0.1, 0.2, 0.3);
+        let x: Vec<Vec3> = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X].iter().map(|d| p + *d * 0.004).collect();
+        let rest: Vec<[f32; 4]> = (0..5).map(|i| [i as f32, 0.0, 0.0, 0.0]).collect();
+        let start: Vec<[f32; 4]> = x.iter().map(|v| [v.x, v.y, v.z, 0.0]).collect();
+        let step = SelfContactStep { thickness: r, friction: 0.3, parallel: false };
+        let (own, other) = (vec![0u32; 4], vec![1u32, 2, 3, 4]);
+        let run = |w: [f32; 5], skip: Option<&[bool]>| {
+            let point: Vec<[f32; 4]> = x.iter().zip(w).map(|(v, w)| [v.x, v.y, v.z, w]).collect();
+            let slots = Slots { point: &point, start: &start, rest: &rest, skip };
+            let (mut i, mut j) = (vec![Vec3::NAN; 4], vec![Vec3::NAN; 4]);
+            pair_corrections(&slots, &own, &other, Moves { own: &mut i, other: &mut j }, &step);
+            (i, j)
+        };
+        let pinned = [0.0, 1.0, 1.0, 1.0, 0.0];
+        let (i, j) = run(pinned, None);
+        assert!(i[3].is_nan() && j[3].is_nan(), "both pinned, unmasked: 0/0 shares");
+        let marked = [false, false, true, false, false];
+        let (mi, mj) = run(pinned, Some(&marked));
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for k in [0, 2] {
+            assert_eq!((bits(mi[k]), bits(mj[k])), (bits(i[k]), bits(j[k])), "pair {k}");
+            assert!(mj[k].length() > 1e-3, "pair {k} is pushed: {:?}", mj[k]);
+        }
+        for k in [1, 3] {
+            assert_eq!((bits(mi[k]), bits(mj[k])), (bits(Vec3::ZERO), bits(Vec3::ZERO)), "pair {k}");
+        }
+        // Unmarked and free, pair 0–2 is pushed: the mark is what stops it.
+        let (_, free) = run([1.0; 5], Some(&[false; 5]));
+        assert!(free[1].length() > 1e-3, "{:?}", free[1]);
     }
 }
