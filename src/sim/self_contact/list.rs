@@ -75,10 +75,36 @@ const MARGIN: f32 = 0.999;
 const CHUNK: usize = 8192;
 
 /// Candidate pairs of slots of the sorted table: `own[k] < other[k]`.
+/// A kept list's are in order of the chunk of the table `other[k]` is in
+/// (stable): chunk t's are `ends[t]..ends[t + 1]`, so each chunk's sums
+/// find their other ends without sorting them each substep.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Candidates {
     pub(super) own: Vec<u32>,
     pub(super) other: Vec<u32>,
+    pub(super) ends: Vec<u32>,
+}
+
+impl Candidates {
+    /// Puts the pairs in order of `other[k] / chunk` (stable), of `chunks`
+    /// chunks, and records where each chunk's start.
+    pub(super) fn sort_by_other(&mut self, chunk: usize, chunks: usize) {
+        self.ends = vec![0; chunks + 1];
+        for &j in &self.other {
+            self.ends[j as usize / chunk + 1] += 1;
+        }
+        for t in 0..chunks {
+            self.ends[t + 1] += self.ends[t];
+        }
+        let mut next = self.ends.clone();
+        let (mut own, mut other) = (vec![0; self.own.len()], vec![0; self.other.len()]);
+        for (&i, &j) in self.own.iter().zip(&self.other) {
+            let at = &mut next[j as usize / chunk];
+            (own[*at as usize], other[*at as usize]) = (i, j);
+            *at += 1;
+        }
+        (self.own, self.other) = (own, other);
+    }
 }
 
 /// What the phase does this substep.

@@ -123,8 +123,11 @@ struct Pairs {
     /// (stable): chunk t's are `to[ends[t]..ends[t + 1]]`.
     to: Vec<(u32, Vec3)>,
     ends: Vec<u32>,
-    /// The first `listed` pairs are a kept list's, not tested against r.
+    /// The first `listed` pairs are a kept list's, not tested against r,
+    /// in order of their other ends' chunks: chunk t's are
+    /// `listed_ends[t]..listed_ends[t + 1]`; `to` holds the others'.
     listed: usize,
+    listed_ends: Vec<u32>,
     kept: Candidates,
 }
 
@@ -173,6 +176,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
         Source::Search(radius) => {
             let mut kept = Candidates::default();
             phase.cells.pairs_after(first, count, radius, &mut kept.own, &mut kept.other);
+            kept.sort_by_other(CHUNK, phase.slot_point.len().div_ceil(CHUNK));
             push_close(&kept, point, r2, &mut pairs);
             pairs.kept = kept;
         }
@@ -187,6 +191,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
             pairs.own.extend_from_slice(&candidates.own);
             pairs.other.extend_from_slice(&candidates.other);
             pairs.listed = pairs.own.len();
+            pairs.listed_ends.clone_from(&candidates.ends);
             // Each mover of the run against the others in the table (the
             // movers among them are paired in `mover_pairs`).
             let reach = step.thickness + list.skin;
@@ -255,18 +260,18 @@ fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mo
     let moves = Moves { own: own_found, other: other_found };
     pair_corrections(&slots, &pairs.own[listed..], &pairs.other[listed..], moves, step);
     // A counting sort of the other ends by chunk, so each chunk's sums can
-    // run on their own.
+    // run on their own (a kept list's pairs were sorted when it was made).
     let chunks = phase.slot_point.len().div_ceil(CHUNK);
     pairs.ends = vec![0; chunks + 1];
-    for &j in &pairs.other {
+    for &j in &pairs.other[listed..] {
         pairs.ends[j as usize / CHUNK + 1] += 1;
     }
     for t in 0..chunks {
         pairs.ends[t + 1] += pairs.ends[t];
     }
     let mut next = pairs.ends.clone();
-    pairs.to = vec![(0, Vec3::ZERO); pairs.other.len()];
-    for (&j, &moved) in pairs.other.iter().zip(&pairs.moved_other) {
+    pairs.to = vec![(0, Vec3::ZERO); pairs.other.len() - listed];
+    for (&j, &moved) in pairs.other[listed..].iter().zip(&pairs.moved_other[listed..]) {
         let at = &mut next[j as usize / CHUNK];
         pairs.to[*at as usize] = (j, moved);
         *at += 1;
@@ -362,6 +367,12 @@ impl SelfContact {
             out.fill(Vec3::ZERO);
             let base = t * CHUNK;
             for pairs in &found {
+                if pairs.listed > 0 {
+                    let (from, to) = (pairs.listed_ends[t] as usize, pairs.listed_ends[t + 1] as usize);
+                    for (&j, &moved) in pairs.other[from..to].iter().zip(&pairs.moved_other[from..to]) {
+                        out[j as usize - base] += moved;
+                    }
+                }
                 for &(j, moved) in &pairs.to[pairs.ends[t] as usize..pairs.ends[t + 1] as usize] {
                     out[j as usize - base] += moved;
                 }
