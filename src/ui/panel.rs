@@ -84,6 +84,9 @@ pub fn panel(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) -> Vec
                     r.strain_after * 100.0
                 ));
             }
+            if let Some((searches, substeps)) = model.sim.self_collision_searches() {
+                how.push_str(&format!("; self-collision searched {searches} of {substeps} substeps"));
+            }
             commands.extend(solver_controls(ui, model.sim.params(), model.sim.solver(), &how, defaults));
         });
         egui::CollapsingHeader::new("View").default_open(true).show(ui, |ui| {
