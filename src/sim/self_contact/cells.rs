@@ -106,8 +106,9 @@ fn buckets_body(x: &[Vec3], inverse_side: f32, bits: u32, buckets: &mut [u32]) {
     }
 }
 
-/// Particles a task of the thread pool takes in the per-particle passes.
-const CHUNK: usize = 4096;
+/// Particles a task of the thread pool takes in the phase's per-particle
+/// passes.
+pub(super) const PER_TASK: usize = 4096;
 
 /// `out[k] = pick(order[k])` for every slot k, on the thread pool with
 /// `parallel`.
@@ -124,7 +125,7 @@ pub(super) fn gather<T: Copy + Default + Send>(
         }
     };
     if parallel {
-        out.par_chunks_mut(CHUNK).zip(order.par_chunks(CHUNK)).for_each(fill);
+        out.par_chunks_mut(PER_TASK).zip(order.par_chunks(PER_TASK)).for_each(fill);
     } else {
         fill((out, order));
     }
@@ -150,9 +151,9 @@ impl Cells {
         let (inverse_side, bits) = (self.inverse_side, self.bits);
         let keys = |(out, x): (&mut [u32], &[Vec3])| buckets_of(x, inverse_side, bits, out);
         if parallel {
-            self.buckets.par_chunks_mut(CHUNK).zip(x.par_chunks(CHUNK)).for_each(keys);
+            self.buckets.par_chunks_mut(PER_TASK).zip(x.par_chunks(PER_TASK)).for_each(keys);
         } else {
-            self.buckets.chunks_mut(CHUNK).zip(x.chunks(CHUNK)).for_each(keys);
+            self.buckets.chunks_mut(PER_TASK).zip(x.chunks(PER_TASK)).for_each(keys);
         }
         self.start.clear();
         self.start.resize(size + 1, 0);

@@ -48,7 +48,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::cells::Cells;
+use super::cells::{Cells, PER_TASK};
 
 /// s / r, the skin of a list that is kept (dimensionless). 0.25: the
 /// search's cells grow from 2r to 2.5r, and a particle becomes a mover
@@ -71,9 +71,6 @@ pub const MOVERS: usize = 32;
 /// |x_i − x_j|, each within a few ulps of the exact values).
 const MARGIN: f32 = 0.999;
 
-/// Slots a task of the thread pool marks.
-const CHUNK: usize = 8192;
-
 /// Candidate pairs of slots of the sorted table: `own[k] < other[k]`.
 /// A kept list's are in order of the chunk of the table `other[k]` is in
 /// (stable): chunk t's are `ends[t]..ends[t + 1]`, so each chunk's sums
@@ -86,23 +83,12 @@ pub(super) struct Candidates {
 }
 
 impl Candidates {
-    /// Puts the pairs in order of `other[k] / chunk` (stable), of `chunks`
-    /// chunks, and records where each chunk's start.
-    pub(super) fn sort_by_other(&mut self, chunk: usize, chunks: usize) {
-        self.ends = vec![0; chunks + 1];
-        for &j in &self.other {
-            self.ends[j as usize / chunk + 1] += 1;
-        }
-        for t in 0..chunks {
-            self.ends[t + 1] += self.ends[t];
-        }
-        let mut next = self.ends.clone();
+    /// Puts the pairs in order of their other end's chunk of the table
+    /// (stable), of `chunks` chunks, and records where each chunk's start.
+    pub(super) fn sort_by_other(&mut self, chunks: usize) {
         let (mut own, mut other) = (vec![0; self.own.len()], vec![0; self.other.len()]);
-        for (&i, &j) in self.own.iter().zip(&self.other) {
-            let at = &mut next[j as usize / chunk];
-            (own[*at as usize], other[*at as usize]) = (i, j);
-            *at += 1;
-        }
+        self.ends =
+            super::sort_by_chunk(&self.other, chunks, |k, at| (own[at], other[at]) = (self.own[k], self.other[k]));
         (self.own, self.other) = (own, other);
     }
 }
@@ -158,13 +144,13 @@ impl PairList {
             self.mover.resize(n, false);
             let mark = |(c, mover): (usize, &mut [bool])| {
                 for (l, m) in mover.iter_mut().enumerate() {
-                    *m = beyond(travel2(c * CHUNK + l), reach2);
+                    *m = beyond(travel2(c * PER_TASK + l), reach2);
                 }
             };
             if parallel {
-                self.mover.par_chunks_mut(CHUNK).enumerate().for_each(mark);
+                self.mover.par_chunks_mut(PER_TASK).enumerate().for_each(mark);
             } else {
-                self.mover.chunks_mut(CHUNK).enumerate().for_each(mark);
+                self.mover.chunks_mut(PER_TASK).enumerate().for_each(mark);
             }
             self.movers.clear();
             self.movers.extend((0..n as u32).filter(|&k| self.mover[k as usize]));

@@ -59,7 +59,7 @@ use crate::sim::fast::simd::dispatch;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use cells::{Cells, gather};
+use cells::{Cells, PER_TASK, gather};
 use list::{Candidates, PairList, Plan};
 use pair::{Moves, Slots, pair_corrections};
 
@@ -176,7 +176,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
         Source::Search(radius) => {
             let mut kept = Candidates::default();
             phase.cells.pairs_after(first, count, radius, &mut kept.own, &mut kept.other);
-            kept.sort_by_other(CHUNK, phase.slot_point.len().div_ceil(CHUNK));
+            kept.sort_by_other(phase.slot_point.len().div_ceil(CHUNK));
             push_close(&kept, point, r2, &mut pairs);
             pairs.kept = kept;
         }
@@ -259,24 +259,34 @@ fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mo
     }
     let moves = Moves { own: own_found, other: other_found };
     pair_corrections(&slots, &pairs.own[listed..], &pairs.other[listed..], moves, step);
-    // A counting sort of the other ends by chunk, so each chunk's sums can
-    // run on their own (a kept list's pairs were sorted when it was made).
-    let chunks = phase.slot_point.len().div_ceil(CHUNK);
-    pairs.ends = vec![0; chunks + 1];
-    for &j in &pairs.other[listed..] {
-        pairs.ends[j as usize / CHUNK + 1] += 1;
+    // The other ends by chunk, so each chunk's sums can run on their own
+    // (a kept list's pairs were sorted so when it was made).
+    let (other, moved) = (&pairs.other[listed..], &pairs.moved_other[listed..]);
+    let mut to = vec![(0, Vec3::ZERO); other.len()];
+    pairs.ends = sort_by_chunk(other, phase.slot_point.len().div_ceil(CHUNK), |k, at| to[at] = (other[k], moved[k]));
+    pairs.to = to;
+    pairs
+}
+
+/// A stable counting sort of slots by the chunk of the table they are in:
+/// `place(k, at)` for each `slots[k]` and the place it sorts to; returns
+/// where each of the `chunks` chunks starts (chunk t's are
+/// `ends[t]..ends[t + 1]`).
+fn sort_by_chunk(slots: &[u32], chunks: usize, mut place: impl FnMut(usize, usize)) -> Vec<u32> {
+    let mut ends = vec![0; chunks + 1];
+    for &j in slots {
+        ends[j as usize / CHUNK + 1] += 1;
     }
     for t in 0..chunks {
-        pairs.ends[t + 1] += pairs.ends[t];
+        ends[t + 1] += ends[t];
     }
-    let mut next = pairs.ends.clone();
-    pairs.to = vec![(0, Vec3::ZERO); pairs.other.len() - listed];
-    for (&j, &moved) in pairs.other[listed..].iter().zip(&pairs.moved_other[listed..]) {
+    let mut next = ends.clone();
+    for (k, &j) in slots.iter().enumerate() {
         let at = &mut next[j as usize / CHUNK];
-        pairs.to[*at as usize] = (j, moved);
+        place(k, *at as usize);
         *at += 1;
     }
-    pairs
+    ends
 }
 
 /// Slots of the sorted table one task of the thread pool takes.
@@ -316,7 +326,7 @@ impl SelfContact {
             }
         };
         if parallel {
-            x.par_chunks_mut(CHUNK * 8).zip(x0.par_chunks(CHUNK * 8)).zip(w.par_chunks(CHUNK * 8)).for_each(bound);
+            x.par_chunks_mut(PER_TASK).zip(x0.par_chunks(PER_TASK)).zip(w.par_chunks(PER_TASK)).for_each(bound);
         } else {
             bound(((x, x0), w));
         }
@@ -396,14 +406,14 @@ impl SelfContact {
         // Each particle takes its slot's sum, in scene order.
         let (slot_of, sums) = (&self.slot_of, &correction);
         let take = |(c, x): (usize, &mut [Vec3])| {
-            for (x, &k) in x.iter_mut().zip(&slot_of[c * CHUNK * 8..]) {
+            for (x, &k) in x.iter_mut().zip(&slot_of[c * PER_TASK..]) {
                 *x += sums[k as usize];
             }
         };
         if parallel {
-            x.par_chunks_mut(CHUNK * 8).enumerate().for_each(take);
+            x.par_chunks_mut(PER_TASK).enumerate().for_each(take);
         } else {
-            x.chunks_mut(CHUNK * 8).enumerate().for_each(take);
+            x.chunks_mut(PER_TASK).enumerate().for_each(take);
         }
         self.correction = correction;
     }

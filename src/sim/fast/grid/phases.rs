@@ -15,6 +15,10 @@ use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
 
+/// Particles a task of the thread pool takes when the lanes are copied to
+/// or from scene order.
+const CHUNK: usize = 4096;
+
 impl Solver for GridLayout {
     fn integrate(&mut self, s: &Substep) {
         let (keep, accel, gravity) = match s.first {
@@ -123,7 +127,6 @@ impl Solver for GridLayout {
                 w[k] = tile.weight[s].0[l];
             }
         };
-        const CHUNK: usize = 8192;
         if parallel {
             let (out, rest) = (x.par_chunks_mut(CHUNK), x0.par_chunks_mut(CHUNK).zip(w.par_chunks_mut(CHUNK)));
             self.locations.par_chunks(CHUNK).zip(out).zip(rest).for_each(|((l, x), (x0, w))| pick(l, x, x0, w));
@@ -166,7 +169,6 @@ impl Solver for GridLayout {
     /// on the thread pool for large cloths (each particle read alone: the
     /// same bits).
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        const CHUNK: usize = 4096;
         let tiles = &self.tiles;
         let chunk = |((locations, positions), previous): ((&[super::Location], &mut [Vec3]), &mut [Vec3])| {
             for ((loc, x), x_prev) in locations.iter().zip(positions).zip(previous) {
