@@ -33,12 +33,13 @@
 //!
 //! **How it runs.** Three loops a substep, each in chunks on the thread pool
 //! for large cloths: the air's velocity relative to each particle (eight
-//! particles at a time where they share a cell of the noise, `noise.rs`); the
-//! force on each triangle, eight triangles at a time in SIMD lanes
-//! (`force.rs`: the same bits as one at a time); and each particle's share,
-//! gathered from its incident triangles.
+//! particles at a time where they share a cell of the noise, `noise.rs`),
+//! written with the positions as 16-byte rows; the force on each triangle,
+//! eight triangles at a time in SIMD lanes (`force.rs`: the same bits as one
+//! at a time); and each particle's share, gathered from its incident
+//! triangles.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::mesh::ClothMesh;
@@ -80,10 +81,13 @@ pub struct Aerodynamics {
     pub x: Vec<Vec3>,
     /// Positions one substep ago, scene order; filled with `x`.
     pub x_prev: Vec<Vec3>,
-    /// u_i = v_air(x_i) − v_i per particle, m/s.
-    relative: Vec<Vec3>,
-    /// A third of each triangle's force, N.
-    third_force: Vec<Vec3>,
+    /// [`Self::x`] as `[x, y, z, 0]` rows, so the triangles load a corner
+    /// in one 16-byte read.
+    points: Vec<[f32; 4]>,
+    /// u_i = v_air(x_i) − v_i per particle, m/s, as `[x, y, z, 0]` rows.
+    relative: Vec<[f32; 4]>,
+    /// A third of each triangle's force, N, as `[x, y, z, 0]` rows.
+    third_force: Vec<[f32; 4]>,
     push: Vec<Vec3>,
 }
 
@@ -125,8 +129,9 @@ impl Aerodynamics {
             triangle_mass,
             x: vec![Vec3::ZERO; n],
             x_prev: vec![Vec3::ZERO; n],
-            relative: vec![Vec3::ZERO; n],
-            third_force: vec![Vec3::ZERO; triangles.len()],
+            points: vec![[0.0; 4]; n],
+            relative: vec![[0.0; 4]; n],
+            third_force: vec![[0.0; 4]; triangles.len()],
             push: vec![Vec3::ZERO; n],
             triangles,
         }
@@ -141,28 +146,31 @@ impl Aerodynamics {
         let gusts = Field::new(&air, step.time as f32);
         {
             // Per particle, the air's velocity relative to it,
-            // v_air(x) − (x − x_prev)/(h/n), so the triangles read one
-            // vector per corner. Chunks in scene order, each with its own
-            // cell cache (neighbours mostly share a cell of the noise).
+            // v_air(x) − (x − x_prev)/(h/n), and x, as rows, so the
+            // triangles read one row per corner. Chunks in scene order, each
+            // with its own cell cache (neighbours mostly share a cell of the
+            // noise).
             let dt = step.dt;
-            let field = |((u, x), x_prev): ((&mut [Vec3], &[Vec3]), &[Vec3])| {
-                noise::relative_air(&gusts, dt, x, x_prev, u);
+            type Chunk<'a> = ((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), (&'a [Vec3], &'a [Vec3]));
+            let field = |((u, points), (x, x_prev)): Chunk| {
+                noise::relative_air(&gusts, dt, x, x_prev, points, u);
             };
             const CHUNK: usize = 2048;
             if parallel {
                 let x = self.x.par_chunks(CHUNK).zip(self.x_prev.par_chunks(CHUNK));
-                self.relative.par_chunks_mut(CHUNK).zip(x).map(|(u, (x, p))| ((u, x), p)).for_each(field);
+                let out = self.relative.par_chunks_mut(CHUNK).zip(self.points.par_chunks_mut(CHUNK));
+                out.zip(x).for_each(field);
             } else {
                 let x = self.x.chunks(CHUNK).zip(self.x_prev.chunks(CHUNK));
-                self.relative.chunks_mut(CHUNK).zip(x).map(|(u, (x, p))| ((u, x), p)).for_each(field);
+                self.relative.chunks_mut(CHUNK).zip(self.points.chunks_mut(CHUNK)).zip(x).for_each(field);
             }
         }
         {
             // A third of each triangle's force, eight triangles at a time
             // (`force`), in chunks of triangles on the pool.
             const TRIANGLES: usize = 4096;
-            let (x, relative) = (&self.x, &self.relative);
-            type Chunk<'a> = (&'a mut [Vec3], (&'a [[u32; 3]], &'a [f32]));
+            let (x, relative) = (&self.points, &self.relative);
+            type Chunk<'a> = (&'a mut [[f32; 4]], (&'a [[u32; 3]], &'a [f32]));
             let chunk = |(out, (triangles, masses)): Chunk| {
                 force::third_forces(&air, step.dt, x, relative, triangles, masses, out);
             };
@@ -179,7 +187,9 @@ impl Aerodynamics {
             let scale = step.displacement_per_newton;
             let gather = |(i, p): (usize, &mut Vec3)| {
                 let range = offsets[i] as usize..offsets[i + 1] as usize;
-                *p = incident[range].iter().map(|&k| forces[k as usize]).sum::<Vec3>() * scale;
+                // Four lanes at once (w is 0), each the sum of one coordinate.
+                let sum = incident[range].iter().map(|&k| Vec4::from_array(forces[k as usize])).sum::<Vec4>();
+                *p = sum.truncate() * scale;
             };
             if parallel {
                 self.push.par_iter_mut().enumerate().for_each(gather);

@@ -121,12 +121,29 @@ dispatch! {
     /// u_i = v_air(x_i) − (x_i − x_prev_i)/`dt` for each particle, eight at
     /// a time where they share a cell of the noise (the bits of one at a
     /// time in every case).
-    pub(super) fn relative_air(field: &Field, dt: f32, x: &[Vec3], x_prev: &[Vec3], relative: &mut [Vec3])
+    pub(super) fn relative_air(
+        field: &Field,
+        dt: f32,
+        x: &[Vec3],
+        x_prev: &[Vec3],
+        points: &mut [[f32; 4]],
+        relative: &mut [[f32; 4]],
+    )
         = relative_air_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn relative_air_body(field: &Field, dt: f32, x: &[Vec3], x_prev: &[Vec3], relative: &mut [Vec3]) {
+fn relative_air_body(
+    field: &Field,
+    dt: f32,
+    x: &[Vec3],
+    x_prev: &[Vec3],
+    points: &mut [[f32; 4]],
+    relative: &mut [[f32; 4]],
+) {
+    for (row, x) in points.iter_mut().zip(x) {
+        *row = x.extend(0.0).to_array();
+    }
     let mut cell = Cell::default();
     let groups = relative.chunks_mut(LANES).zip(x.chunks(LANES)).zip(x_prev.chunks(LANES));
     for ((u, x), x_prev) in groups {
@@ -141,13 +158,13 @@ fn relative_air_body(field: &Field, dt: f32, x: &[Vec3], x_prev: &[Vec3], relati
                 ];
                 let (ux, uy, uz) = (air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2]);
                 for (l, u) in u.iter_mut().enumerate() {
-                    *u = Vec3::new(ux.0[l], uy.0[l], uz.0[l]);
+                    *u = [ux.0[l], uy.0[l], uz.0[l], 0.0];
                 }
                 continue;
             }
         }
         for ((u, &x), &x_prev) in u.iter_mut().zip(x).zip(x_prev) {
-            *u = field.at(x, &mut cell) - (x - x_prev) / dt;
+            *u = (field.at(x, &mut cell) - (x - x_prev) / dt).extend(0.0).to_array();
         }
     }
 }
@@ -289,12 +306,13 @@ mod tests {
         let field = Field::new(&a, 0.37);
         let x: Vec<Vec3> = (0..203).map(|k| Vec3::new(k as f32 * 0.01, 0.3 + k as f32 * 1e-3, -0.2)).collect();
         let x_prev: Vec<Vec3> = x.iter().map(|p| *p - Vec3::new(0.001, -0.002, 0.0005)).collect();
-        let mut relative = vec![Vec3::NAN; x.len()];
-        relative_air(&field, 0.01, &x, &x_prev, &mut relative);
-        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let (mut points, mut relative) = (vec![[f32::NAN; 4]; x.len()], vec![[f32::NAN; 4]; x.len()]);
+        relative_air(&field, 0.01, &x, &x_prev, &mut points, &mut relative);
+        let bits = |v: Vec3| v.extend(0.0).to_array().map(f32::to_bits);
         for k in 0..x.len() {
             let alone = field.at(x[k], &mut Cell::default()) - (x[k] - x_prev[k]) / 0.01;
-            assert_eq!(bits(relative[k]), bits(alone), "particle {k}");
+            assert_eq!(relative[k].map(f32::to_bits), bits(alone), "particle {k}");
+            assert_eq!(points[k].map(f32::to_bits), bits(x[k]), "particle {k}");
         }
         // Both ways were taken: most groups share a cell, some do not.
         let lanes = |group: &[Vec3]| {

@@ -8,13 +8,15 @@
 #![allow(unsafe_code)]
 
 use std::arch::x86_64::{
-    __m128, __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_div_ps,
-    _mm256_max_ps, _mm256_mul_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+    __m128, __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_blendv_ps,
+    _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_max_ps, _mm256_mul_ps,
+    _mm256_or_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
     _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
 use std::ops::{Add, Div, Mul, Sub};
 
 use super::kernel::{LANES, Real};
+use super::rows::Rows;
 
 /// Eight `f32` lanes in one AVX register, for the shared kernels.
 ///
@@ -73,6 +75,52 @@ pub(crate) fn gather_rows(rows: &[[f32; 4]], index: &[usize; LANES]) -> [Avx; 4]
     }
 }
 
+impl Rows for Avx {
+    #[inline(always)]
+    fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4] {
+        gather_rows(rows, s)
+    }
+    #[inline(always)]
+    fn to_rows(lanes: [Self; 4]) -> [[f32; 4]; LANES] {
+        let rows = untranspose_rows(lanes);
+        let mut out = [[0.0; 4]; LANES];
+        for (l, row) in rows.into_iter().enumerate() {
+            // SAFETY: by the type's contract, called only where AVX2 is enabled.
+            let (low, high) = unsafe { (_mm256_castps256_ps128(row), _mm256_extractf128_ps::<1>(row)) };
+            out[l] = bytemuck::cast(low);
+            out[l + 4] = bytemuck::cast(high);
+        }
+        out
+    }
+    #[inline(always)]
+    fn values(self) -> [f32; LANES] {
+        self.lanes()
+    }
+    #[inline(always)]
+    fn from_values(values: [f32; LANES]) -> Self {
+        Avx::from(values)
+    }
+}
+
+/// The inverse of [`transpose_rows`]: four lanes [x, y, z, w] as four
+/// registers, register l holding row l in its low half and row l + 4 in its
+/// high half. Same contract as [`Avx`].
+#[inline(always)]
+pub(crate) fn untranspose_rows([x, y, z, w]: [Avx; 4]) -> [__m256; 4] {
+    // SAFETY: by the type's contract, called only where AVX2 is enabled.
+    unsafe {
+        // Per half: t0 = x0 y0 x1 y1, t1 = x2 y2 x3 y3, t2 = z0 w0 z1 w1, t3 = z2 w2 z3 w3.
+        let (t0, t1) = (_mm256_unpacklo_ps(x.0, y.0), _mm256_unpackhi_ps(x.0, y.0));
+        let (t2, t3) = (_mm256_unpacklo_ps(z.0, w.0), _mm256_unpackhi_ps(z.0, w.0));
+        [
+            _mm256_shuffle_ps::<0x44>(t0, t2),
+            _mm256_shuffle_ps::<0xEE>(t0, t2),
+            _mm256_shuffle_ps::<0x44>(t1, t3),
+            _mm256_shuffle_ps::<0xEE>(t1, t3),
+        ]
+    }
+}
+
 macro_rules! avx_op {
     ($trait:ident, $method:ident, $intrinsic:ident) => {
         impl $trait for Avx {
@@ -122,5 +170,15 @@ impl Real for Avx {
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
         // SAFETY: an `Avx` exists only where AVX is available.
         Avx(unsafe { _mm256_blendv_ps(otherwise.0, then.0, _mm256_cmp_ps::<_CMP_GT_OQ>(a.0, b.0)) })
+    }
+    /// The magnitude bits of `self` and the sign bit of `sign`, as
+    /// `f32::copysign`.
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        // SAFETY: an `Avx` exists only where AVX is available.
+        Avx(unsafe {
+            let bit = _mm256_set1_ps(-0.0);
+            _mm256_or_ps(_mm256_andnot_ps(bit, self.0), _mm256_and_ps(bit, sign.0))
+        })
     }
 }

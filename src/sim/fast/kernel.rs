@@ -41,6 +41,8 @@ pub(crate) trait Real:
     fn if_moving(w: Self, then: Self, otherwise: Self) -> Self;
     /// `if a > b { then } else { otherwise }`, lane by lane.
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self;
+    /// `self` with the sign of `sign`, lane by lane (`f32::copysign`).
+    fn copysign(self, sign: Self) -> Self;
 }
 
 impl Real for f32 {
@@ -67,6 +69,10 @@ impl Real for f32 {
     #[inline(always)]
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
         if a > b { then } else { otherwise }
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        f32::copysign(self, sign)
     }
 }
 
@@ -136,6 +142,10 @@ impl Real for F32x8 {
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
         F32x8(std::array::from_fn(|l| Real::if_greater(a.0[l], b.0[l], then.0[l], otherwise.0[l])))
     }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        F32x8(std::array::from_fn(|l| self.0[l].copysign(sign.0[l])))
+    }
 }
 
 impl F32x8 {
@@ -148,11 +158,6 @@ impl F32x8 {
     #[inline(always)]
     pub(crate) fn rotate_up(self) -> Self {
         F32x8(std::array::from_fn(|l| self.0[(l + LANES - 1) % LANES]))
-    }
-    /// `self` with the sign of `sign`, lane by lane (`f32::copysign`).
-    #[inline(always)]
-    pub(crate) fn copysign(self, sign: Self) -> Self {
-        F32x8(std::array::from_fn(|l| self.0[l].copysign(sign.0[l])))
     }
     /// The largest lane.
     #[inline(always)]

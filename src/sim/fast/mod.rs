@@ -54,6 +54,7 @@ pub(crate) mod avx;
 mod generic;
 mod grid;
 pub(crate) mod kernel;
+pub(crate) mod rows;
 pub mod simd;
 
 use glam::Vec3;

@@ -32,7 +32,8 @@
 use glam::Vec3;
 
 use super::SelfContactStep;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, per_lane, scale, sub};
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, scale, sub};
+use crate::sim::fast::rows::Rows;
 use crate::sim::fast::simd::{self, SimdLevel};
 
 /// What the phase reads of each slot of the sorted table, one 16-byte row
@@ -69,39 +70,6 @@ pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: M
         return;
     }
     corrections_in::<F32x8>(slots, own, other, out, step);
-}
-
-/// Lanes the pairs can be computed on: eight rows of a slot table
-/// transposed in, lanes read back out.
-trait Rows: Real {
-    /// Rows `s[0..8]` as four lanes, [x, y, z, w].
-    fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4];
-    /// The eight values.
-    fn values(self) -> [f32; LANES];
-    /// Lanes holding the eight values.
-    fn from_values(values: [f32; LANES]) -> Self;
-}
-
-impl Rows for F32x8 {
-    /// `per_lane!` writes the eight loads out: `std::array::from_fn` was
-    /// left a call per lane.
-    #[inline(always)]
-    fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4] {
-        [
-            per_lane!(|l| rows[s[l]][0]),
-            per_lane!(|l| rows[s[l]][1]),
-            per_lane!(|l| rows[s[l]][2]),
-            per_lane!(|l| rows[s[l]][3]),
-        ]
-    }
-    #[inline(always)]
-    fn values(self) -> [f32; LANES] {
-        self.0
-    }
-    #[inline(always)]
-    fn from_values(values: [f32; LANES]) -> Self {
-        F32x8(values)
-    }
 }
 
 /// [`pair_corrections`] on lanes of type `T`.
@@ -217,24 +185,8 @@ fn friction<T: Real>(share: T, push: T, slide: T, step: &SelfContactStep) -> T {
 /// [`pair_corrections`] in AVX registers.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Moves, Rows, SelfContactStep, Slots, corrections_in};
-    use crate::sim::fast::avx::{Avx, gather_rows};
-    use crate::sim::fast::kernel::LANES;
-
-    impl Rows for Avx {
-        #[inline(always)]
-        fn gather(rows: &[[f32; 4]], s: &[usize; LANES]) -> [Self; 4] {
-            gather_rows(rows, s)
-        }
-        #[inline(always)]
-        fn values(self) -> [f32; LANES] {
-            self.lanes()
-        }
-        #[inline(always)]
-        fn from_values(values: [f32; LANES]) -> Self {
-            Avx::from(values)
-        }
-    }
+    use super::{Moves, SelfContactStep, Slots, corrections_in};
+    use crate::sim::fast::avx::Avx;
 
     #[target_feature(enable = "avx2,fma")]
     pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {

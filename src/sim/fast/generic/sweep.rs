@@ -116,12 +116,10 @@ fn relax_one<const XPBD: bool>(
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx2 {
-    use std::arch::x86_64::{
-        _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
-    };
+    use std::arch::x86_64::{_mm256_castps256_ps128, _mm256_extractf128_ps};
 
     use super::{BarColumns, Colouring, Particle, Sweep, relax_colours};
-    use crate::sim::fast::avx::{Avx, gather_rows};
+    use crate::sim::fast::avx::{Avx, gather_rows, untranspose_rows};
     use crate::sim::fast::kernel::{LANES, Point, Real, excess, relax_pair};
 
     /// [`super::relax_pass`] with eight bars at a time.
@@ -184,22 +182,10 @@ mod avx2 {
     /// The inverse of [`gather`]: particle `index[l]` takes lane l.
     #[inline(always)]
     fn scatter(particles: &mut [Particle], index: &[usize; LANES], x: Point<Avx>, w: Avx) {
-        let (x, y, z, w) = (x[0].0, x[1].0, x[2].0, w.0);
-        // SAFETY: called only from `relax_octet`, compiled with AVX2.
-        let rows = unsafe {
-            // Per half: t0 = x0 y0 x1 y1, t1 = x2 y2 x3 y3, t2 = z0 w0 z1 w1, t3 = z2 w2 z3 w3.
-            let (t0, t1) = (_mm256_unpacklo_ps(x, y), _mm256_unpackhi_ps(x, y));
-            let (t2, t3) = (_mm256_unpacklo_ps(z, w), _mm256_unpackhi_ps(z, w));
-            // Row l holds particles l and l + 4.
-            [
-                _mm256_shuffle_ps::<0x44>(t0, t2),
-                _mm256_shuffle_ps::<0xEE>(t0, t2),
-                _mm256_shuffle_ps::<0x44>(t1, t3),
-                _mm256_shuffle_ps::<0xEE>(t1, t3),
-            ]
-        };
+        // Row l holds particles l and l + 4.
+        let rows = untranspose_rows([x[0], x[1], x[2], w]);
         for (l, row) in rows.into_iter().enumerate() {
-            // SAFETY: as above.
+            // SAFETY: called only from `relax_octet`, compiled with AVX2.
             let (low, high) = unsafe { (_mm256_castps256_ps128(row), _mm256_extractf128_ps::<1>(row)) };
             particles[index[l]] = bytemuck::cast(low);
             particles[index[l + 4]] = bytemuck::cast(high);
