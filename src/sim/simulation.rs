@@ -379,13 +379,15 @@ impl Simulation {
     /// A large cloth's step runs many short loops on rayon's thread pool
     /// (two per relaxation pass on a grid of 16 384 particles or more).
     /// Called from a thread outside the pool, each loop would hand its work
-    /// to the pool and put the caller to sleep until it is done; so such a
-    /// call hands the pool the whole call once, and the loops start on a
-    /// worker at once (8 % off a 256 × 256 step on two threads, host D).
-    /// The result is the same either way.
+    /// to the pool and put the caller to sleep until it is done; so when the
+    /// solver's relaxation uses the pool ([`Solver::uses_pool`]), such a call
+    /// hands the pool the whole call once, and the loops start on a worker
+    /// at once (5–8 % off a 256 × 256 step on two threads, host D). A
+    /// smaller cloth stays on the calling thread (moving its step to a
+    /// worker cost a 100 × 100 grid 4–10 %). The result is the same either
+    /// way.
     pub fn advance(&mut self, n: u64) -> Result<(), SimError> {
-        let threaded = self.mesh.particle_count() >= super::self_contact::PARALLEL_PARTICLES;
-        if threaded && rayon::current_thread_index().is_none() {
+        if self.solver.uses_pool() && rayon::current_thread_index().is_none() {
             return rayon::scope(|_| self.advance_on_this_thread(n));
         }
         self.advance_on_this_thread(n)

@@ -143,6 +143,12 @@ pub trait Solver: Debug + Send + Sync {
     fn first_non_finite(&self) -> Option<usize>;
     /// How the solver works, in a few words (layout, SIMD, threads).
     fn describe(&self) -> String;
+    /// Whether its relaxation runs loops on rayon's thread pool (a large
+    /// cloth's layout on more than one thread): then a step is best run
+    /// on the pool as a whole ([`Simulation::advance`](super::Simulation::advance)).
+    fn uses_pool(&self) -> bool {
+        false
+    }
     /// A copy behind a new box (solvers are cloned with their simulation).
     fn boxed_clone(&self) -> Box<dyn Solver>;
 }

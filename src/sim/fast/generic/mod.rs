@@ -245,6 +245,10 @@ impl Solver for GenericLayout {
         (0..self.particles.len()).find(|&i| !self.particles[self.slot(i)].position.iter().all(|c| c.is_finite()))
     }
 
+    fn uses_pool(&self) -> bool {
+        self.bars.blocks.len() > 1 && rayon::current_num_threads() > 1
+    }
+
     fn describe(&self) -> String {
         let (colours, boundary_colours) = self.bars.colours();
         let lanes =

@@ -222,6 +222,10 @@ impl Solver for GridLayout {
         })
     }
 
+    fn uses_pool(&self) -> bool {
+        self.parallel()
+    }
+
     fn describe(&self) -> String {
         format!(
             "lanes: {}, {}{}",
