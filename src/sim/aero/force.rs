@@ -212,8 +212,8 @@ mod tests {
         // The special triangles are what they claim to be: no area, no
         // force; still air (u = 0) no force either; the light one's drag
         // and lift are each capped at m|u|/dt, so together at most twice
-        // that, while the same triangle at 1 kg feels far more.
-        // Rows are [x, y, z, 0].
+        // that, while the same triangle at 1 kg feels far more. (Rows are
+        // [x, y, z, 0].)
         let together: Vec<Vec3> = together.iter().map(|f| Vec3::from_slice(&f[..3])).collect();
         assert_eq!(together[4], Vec3::ZERO);
         assert_eq!(together[9], Vec3::ZERO);

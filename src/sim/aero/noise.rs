@@ -118,9 +118,10 @@ impl Field {
 }
 
 dispatch! {
-    /// u_i = v_air(x_i) − (x_i − x_prev_i)/`dt` for each particle, eight at
-    /// a time where they share a cell of the noise (the bits of one at a
-    /// time in every case).
+    /// u_i = v_air(x_i) − (x_i − x_prev_i)/`dt` for each particle into
+    /// `relative`, eight at a time where they share a cell of the noise (the
+    /// bits of one at a time in every case), and x_i into `points`, both as
+    /// `[x, y, z, 0]` rows (the form the triangles read).
     pub(super) fn relative_air(
         field: &Field,
         dt: f32,
