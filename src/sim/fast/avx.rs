@@ -106,7 +106,7 @@ impl Rows for Avx {
 /// registers, register l holding row l in its low half and row l + 4 in its
 /// high half. Same contract as [`Avx`].
 #[inline(always)]
-pub(crate) fn untranspose_rows([x, y, z, w]: [Avx; 4]) -> [__m256; 4] {
+fn untranspose_rows([x, y, z, w]: [Avx; 4]) -> [__m256; 4] {
     // SAFETY: by the type's contract, called only where AVX2 is enabled.
     unsafe {
         // Per half: t0 = x0 y0 x1 y1, t1 = x2 y2 x3 y3, t2 = z0 w0 z1 w1, t3 = z2 w2 z3 w3.

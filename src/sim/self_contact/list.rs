@@ -20,10 +20,10 @@
 //! - movers against movers, in a small table of their own, built each
 //!   substep at their present positions.
 //!
-//! Each substep every candidate is tested against r at the present
-//! positions, and the rule runs on those that pass: the list's pairs of two
-//! non-movers, then each mover's. A new search runs when the movers pass
-//! 1 in [`MOVERS`] of the particles.
+//! Each substep the list's pairs go to the rule untested (it gives nothing
+//! at r or beyond), those with a mover end masked out; each mover's pairs
+//! are tested against r at the present positions first. A new search runs
+//! when the movers pass 1 in [`MOVERS`] of the particles.
 //!
 //! **When a skin pays.** A list with a skin costs more to build than the
 //! plain search (a ball of radius r + s, cells of side 2(r + s)) and adds a

@@ -131,36 +131,27 @@ struct Pairs {
     kept: Candidates,
 }
 
-/// Where a run's candidate pairs come from this substep.
-#[derive(Clone, Copy)]
-enum Source {
-    /// A search of this radius (metres); r: the plain search, whose pairs
-    /// are all closer than r.
-    Search(f32),
-    /// The kept list, and the movers searched again.
-    List,
-}
-
 dispatch! {
-    /// The pairs of slots `chunk · CHUNK ..` with later slots that act now.
-    fn pairs_of(phase: &SelfContact, chunk: usize, source: Source, step: &SelfContactStep) -> Pairs
+    /// The pairs of slots `chunk · CHUNK ..` with later slots that act now:
+    /// from a search of radius r + s (`plan`'s skin s; 0: the plain search,
+    /// whose pairs are all closer than r), or from the kept list and the
+    /// movers searched again.
+    fn pairs_of(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep) -> Pairs
         = pairs_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfContactStep) -> Pairs {
+fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep) -> Pairs {
     let mut pairs = Pairs::default();
     let first = chunk * CHUNK;
     let count = CHUNK.min(phase.slot_point.len() - first);
     let point = &phase.slot_point;
     // Two pinned particles do not touch each other (w_i + w_j = 0).
     let free = |slot: u32| point[slot as usize][3] > 0.0;
-    // Closer than r now, with a margin for rounding (the rule gives nothing
-    // to the extra pairs: |d| ≥ r ≥ d_min); not both pinned.
-    let r2 = step.thickness * step.thickness * (1.0 + 1e-4);
-    match source {
-        Source::Search(radius) if radius == step.thickness => {
-            phase.cells.pairs_after(first, count, radius, &mut pairs.own, &mut pairs.other);
+    let r2 = acting_distance2(step);
+    match plan {
+        Plan::Search { skin: 0.0 } => {
+            phase.cells.pairs_after(first, count, step.thickness, &mut pairs.own, &mut pairs.other);
             if !(first..first + count).all(|slot| free(slot as u32)) {
                 let mut kept = 0;
                 for k in 0..pairs.own.len() {
@@ -173,14 +164,14 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
                 pairs.other.truncate(kept);
             }
         }
-        Source::Search(radius) => {
+        Plan::Search { skin } => {
             let mut kept = Candidates::default();
-            phase.cells.pairs_after(first, count, radius, &mut kept.own, &mut kept.other);
+            phase.cells.pairs_after(first, count, step.thickness + skin, &mut kept.own, &mut kept.other);
             kept.sort_by_other(phase.slot_point.len().div_ceil(CHUNK));
             push_close(&kept, point, r2, &mut pairs);
             pairs.kept = kept;
         }
-        Source::List => {
+        Plan::Keep => {
             let list = &phase.list;
             let candidates = &list.chunks[chunk];
             let mover = &list.mover;
@@ -212,6 +203,13 @@ fn pairs_body(phase: &SelfContact, chunk: usize, source: Source, step: &SelfCont
         }
     }
     corrections(phase, pairs, step, &phase.list.mover)
+}
+
+/// The squared distance under which a pair acts ([`acts`]): r², with a
+/// margin for rounding (the rule gives nothing to the extra pairs:
+/// |d| ≥ r ≥ d_min).
+fn acting_distance2(step: &SelfContactStep) -> f32 {
+    step.thickness * step.thickness * (1.0 + 1e-4)
 }
 
 /// Whether slots i and j are closer than √`r2` and not both pinned.
@@ -338,8 +336,8 @@ impl SelfContact {
         } else {
             Plan::Search { skin: 0.0 }
         };
-        let source = match plan {
-            Plan::Keep => Source::List,
+        match plan {
+            Plan::Keep => {}
             Plan::Search { skin } => {
                 self.searches += 1;
                 self.cells.build(x_now, 2.0 * (r + skin), parallel);
@@ -350,12 +348,11 @@ impl SelfContact {
                     self.slot_of[i as usize] = k as u32;
                 }
                 gather(&mut self.slot_point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
-                Source::Search(r + skin)
             }
-        };
+        }
         gather(&mut self.slot_start, &self.cells.order, parallel, |i| row(x0[i], 0.0));
         let this = &*self;
-        let find = |c: usize| pairs_of(this, c, source, step);
+        let find = |c: usize| pairs_of(this, c, plan, step);
         let chunks = n.div_ceil(CHUNK);
         let mut found: Vec<Pairs> =
             if parallel { (0..chunks).into_par_iter().map(find).collect() } else { (0..chunks).map(find).collect() };
@@ -430,9 +427,10 @@ impl SelfContact {
             let (mut own, mut other) = (Vec::new(), Vec::new());
             self.mover_cells.pairs_after(0, at.len(), step.thickness, &mut own, &mut other);
             let slot = |s: u32| movers[self.mover_cells.order[s as usize] as usize];
+            let r2 = acting_distance2(step);
             for (&a, &b) in own.iter().zip(&other) {
                 let (i, j) = (slot(a), slot(b));
-                if point[i as usize][3] > 0.0 || point[j as usize][3] > 0.0 {
+                if acts(point, r2, i, j) {
                     pairs.own.push(i);
                     pairs.other.push(j);
                 }

@@ -116,11 +116,10 @@ fn relax_one<const XPBD: bool>(
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx2 {
-    use std::arch::x86_64::{_mm256_castps256_ps128, _mm256_extractf128_ps};
-
     use super::{BarColumns, Colouring, Particle, Sweep, relax_colours};
-    use crate::sim::fast::avx::{Avx, gather_rows, untranspose_rows};
+    use crate::sim::fast::avx::{Avx, gather_rows};
     use crate::sim::fast::kernel::{LANES, Point, Real, excess, relax_pair};
+    use crate::sim::fast::rows::Rows;
 
     /// [`super::relax_pass`] with eight bars at a time.
     #[target_feature(enable = "avx2,fma")]
@@ -182,13 +181,8 @@ mod avx2 {
     /// The inverse of [`gather`]: particle `index[l]` takes lane l.
     #[inline(always)]
     fn scatter(particles: &mut [Particle], index: &[usize; LANES], x: Point<Avx>, w: Avx) {
-        // Row l holds particles l and l + 4.
-        let rows = untranspose_rows([x[0], x[1], x[2], w]);
-        for (l, row) in rows.into_iter().enumerate() {
-            // SAFETY: called only from `relax_octet`, compiled with AVX2.
-            let (low, high) = unsafe { (_mm256_castps256_ps128(row), _mm256_extractf128_ps::<1>(row)) };
-            particles[index[l]] = bytemuck::cast(low);
-            particles[index[l + 4]] = bytemuck::cast(high);
+        for (row, &i) in Avx::to_rows([x[0], x[1], x[2], w]).into_iter().zip(index) {
+            particles[i] = bytemuck::cast(row);
         }
     }
 }
