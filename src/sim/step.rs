@@ -131,6 +131,9 @@ pub trait Solver: Debug + Send + Sync {
 
     /// Current and previous positions, scene order.
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]);
+    /// [`Solver::read`] as `[x, y, z, 0]` rows (the same bits), the form the
+    /// lane kernels load one row at a time.
+    fn read_rows(&self, positions: &mut [[f32; 4]], previous: &mut [[f32; 4]]);
     /// Sets one particle's position and previous position.
     fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3);
     /// Sets one particle's inverse mass (relative to m; 0 fixes it). A write,
@@ -184,7 +187,7 @@ pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 
     let Phases { air, hold, coarse, project, self_contact, contact } = phases;
     // The Euler start (equation 2) ignores every force, the air's too.
     let push = air.filter(|_| s.first.is_none()).map(|(phase, step)| {
-        solver.read(&mut phase.x, &mut phase.x_prev);
+        solver.read_rows(&mut phase.x, &mut phase.x_prev);
         phase.compute(step)
     });
     solver.integrate(s);

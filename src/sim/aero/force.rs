@@ -71,10 +71,14 @@ fn forces_in<T: Rows>(
         };
         let corners = [corner(x, 0), corner(x, 1), corner(x, 2)];
         let air_at = [corner(relative, 0), corner(relative, 1), corner(relative, 2)];
-        let [fx, fy, fz] = force(air, dt, lane_mass, corners, air_at);
-        let three = T::splat(3.0);
-        let rows = T::to_rows([fx / three, fy / three, fz / three, T::splat(0.0)]);
-        out.copy_from_slice(&rows[..out.len()]);
+        let [fx, fy, fz] = corner_force(air, dt, lane_mass, corners, air_at);
+        let rows = T::to_rows([fx, fy, fz, T::splat(0.0)]);
+        // A whole group is one fixed-size copy (a slice copy of any length
+        // was a call to `memcpy` per group).
+        match <&mut [_; LANES]>::try_from(&mut *out) {
+            Ok(out) => *out = rows,
+            Err(_) => out.copy_from_slice(&rows[..out.len()]),
+        }
     }
 }
 
@@ -98,27 +102,40 @@ mod avx2 {
     }
 }
 
-/// Drag plus lift on eight triangles of mass `mass` (kg) with corners `x`
-/// (m) where the air moves at `relative` (m/s) to the corners; zero for a
-/// triangle without area. Per lane, the operations of one triangle in the
-/// same order; a NaN anywhere gives a NaN or zero force as it would alone.
+/// The force each corner takes, a third of the drag plus lift, on eight
+/// triangles of mass `mass` (kg)
+/// with corners `x` (m) where the air moves at `relative` (m/s) to the
+/// corners; zero for a triangle without area. Per lane, the operations of
+/// one triangle in the same order; a NaN anywhere gives a NaN or zero force
+/// as it would alone.
+///
+/// The factors of 3 (u is the mean of three corners, each corner takes a
+/// third) are folded into constants computed once a call: with s = 3u the
+/// sum of the corners' velocities, u·n = s·n/3 and |u| = |s|/3, so
+///
+/// ```text
+/// F_d/3 = sign(s·n) min(ρC_d A (s·n)²/54, m |s·n|/(9 dt))
+/// F_l/3 = ρC_l A/54 · (|s| (s·n) n − (s·n)²/|s| s),  capped at m |s|/(9 dt)
+/// ```
+///
+/// (no division on the chain from the corners to the force but the
+/// normal's, the lift's direction and its cap).
 #[inline(always)]
-fn force<T: Real>(air: &Air, dt: f32, mass: T, x: [Point<T>; 3], relative: [Point<T>; 3]) -> Point<T> {
+fn corner_force<T: Real>(air: &Air, dt: f32, mass: T, x: [Point<T>; 3], relative: [Point<T>; 3]) -> Point<T> {
     let [a, b, c] = x;
     let normal2 = cross(sub(b, a), sub(c, a));
     let twice_area = dot(normal2, normal2).sqrt();
     let n = each(normal2, |v| v / twice_area);
-    let area = T::splat(0.5) * twice_area;
     let [ra, rb, rc] = relative;
-    let three = T::splat(3.0);
-    let u = [(ra[0] + rb[0] + rc[0]) / three, (ra[1] + rb[1] + rc[1]) / three, (ra[2] + rb[2] + rc[2]) / three];
-    let un = dot(u, n);
-    let q = T::splat(0.5 * air.density) * area;
-    let dt = T::splat(dt);
-    let drag_cap = mass * un.abs() / dt;
-    let pressure = q * T::splat(air.drag) * un * un;
-    // sign(u·n) · min(pressure, cap): both are ≥ 0, so the sign is copied.
-    let drag_size = T::if_greater(pressure, drag_cap, drag_cap, pressure).copysign(un);
+    let s = [ra[0] + rb[0] + rc[0], ra[1] + rb[1] + rc[1], ra[2] + rb[2] + rc[2]];
+    let sn = dot(s, n);
+    // ½ρ A/27 = ρ (2A)/108: the pressure's factor, per (s·n)², a third.
+    let q = T::splat(air.density / 108.0) * twice_area;
+    let per_speed = mass * T::splat(1.0 / (9.0 * dt));
+    let drag_cap = per_speed * sn.abs();
+    let pressure = q * T::splat(air.drag) * sn * sn;
+    // sign(s·n) · min(pressure, cap): both are ≥ 0, so the sign is copied.
+    let drag_size = T::if_greater(pressure, drag_cap, drag_cap, pressure).copysign(sn);
     let drag = each(n, |v| v * drag_size);
     // A triangle without area feels nothing.
     let zero = T::splat(0.0);
@@ -128,15 +145,15 @@ fn force<T: Real>(air: &Air, dt: f32, mass: T, x: [Point<T>; 3], relative: [Poin
     }
     // ½ρC_l A |u|² cos φ (n − cos φ û) = ½ρC_l A (|u| u·n n − (u·n)² u/|u|):
     // perpendicular to u, of size ½ρC_l A |u|² |cos φ| sin φ.
-    let speed2 = dot(u, u);
+    let speed2 = dot(s, s);
     let speed = speed2.sqrt();
-    let (along_n, along_u, size) = (speed * un, un * un / speed, q * T::splat(air.lift));
+    let (along_n, along_s, size) = (speed * sn, sn * sn / speed, q * T::splat(air.lift));
     let lift = [
-        (n[0] * along_n - u[0] * along_u) * size,
-        (n[1] * along_n - u[1] * along_u) * size,
-        (n[2] * along_n - u[2] * along_u) * size,
+        (n[0] * along_n - s[0] * along_s) * size,
+        (n[1] * along_n - s[1] * along_s) * size,
+        (n[2] * along_n - s[2] * along_s) * size,
     ];
-    let cap = mass * speed / dt;
+    let cap = per_speed * speed;
     let size2 = dot(lift, lift);
     let shrink = cap / size2.sqrt();
     let capped = each(lift, |v| T::if_greater(size2, cap * cap, v * shrink, v));

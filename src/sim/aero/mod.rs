@@ -31,13 +31,14 @@
 //! **Turbulence** (`noise.rs`): the air's velocity is the mean wind V plus
 //! gusts of smooth value noise carried along by the wind.
 //!
-//! **How it runs.** Three loops a substep, each in chunks on the thread pool
-//! for large cloths: the air's velocity relative to each particle (eight
-//! particles at a time where they share a cell of the noise, `noise.rs`),
-//! written with the positions as 16-byte rows; the force on each triangle,
-//! eight triangles at a time in SIMD lanes (`force.rs`: the same bits as one
-//! at a time); and each particle's share, gathered from its incident
-//! triangles.
+//! **How it runs.** The solver writes the positions now and a substep ago as
+//! 16-byte rows `[x, y, z, 0]` ([`Solver::read_rows`](super::step::Solver::read_rows)),
+//! and three loops follow, each in chunks on the thread pool for large
+//! cloths: the air's velocity relative to each particle (eight particles at
+//! a time, rows transposed into lanes, where they share a cell of the
+//! noise: `noise.rs`); the force each corner of a triangle takes, eight
+//! triangles at a time in SIMD lanes (`force.rs`: the same bits as one at a
+//! time); and each particle's share, gathered from its incident triangles.
 
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
@@ -77,13 +78,13 @@ pub struct Aerodynamics {
     incident: Vec<u32>,
     /// m_t: Σ over corners of m_i · (A_t / 3) / A_i, kg (σ A_t for a density).
     triangle_mass: Vec<f32>,
-    /// Positions x, scene order; filled by the solver before [`Self::compute`].
-    pub x: Vec<Vec3>,
-    /// Positions one substep ago, scene order; filled with `x`.
-    pub x_prev: Vec<Vec3>,
-    /// [`Self::x`] as `[x, y, z, 0]` rows, so the triangles load a corner
-    /// in one 16-byte read.
-    points: Vec<[f32; 4]>,
+    /// Positions x, scene order, as `[x, y, z, 0]` rows (the triangles load
+    /// a corner in one 16-byte read); filled by the solver
+    /// ([`Solver::read_rows`](super::step::Solver::read_rows)) before
+    /// [`Self::compute`].
+    pub x: Vec<[f32; 4]>,
+    /// Positions one substep ago, the same way.
+    pub x_prev: Vec<[f32; 4]>,
     /// u_i = v_air(x_i) − v_i per particle, m/s, as `[x, y, z, 0]` rows.
     relative: Vec<[f32; 4]>,
     /// A third of each triangle's force, N, as `[x, y, z, 0]` rows.
@@ -127,9 +128,8 @@ impl Aerodynamics {
             offsets,
             incident,
             triangle_mass,
-            x: vec![Vec3::ZERO; n],
-            x_prev: vec![Vec3::ZERO; n],
-            points: vec![[0.0; 4]; n],
+            x: vec![[0.0; 4]; n],
+            x_prev: vec![[0.0; 4]; n],
             relative: vec![[0.0; 4]; n],
             third_force: vec![[0.0; 4]; triangles.len()],
             push: vec![Vec3::ZERO; n],
@@ -146,30 +146,26 @@ impl Aerodynamics {
         let gusts = Field::new(&air, step.time as f32);
         {
             // Per particle, the air's velocity relative to it,
-            // v_air(x) − (x − x_prev)/(h/n), and x, as rows, so the
-            // triangles read one row per corner. Chunks in scene order, each
-            // with its own cell cache (neighbours mostly share a cell of the
-            // noise).
+            // v_air(x) − (x − x_prev)/(h/n), as rows. Chunks in scene order,
+            // each with its own cell cache (neighbours mostly share a cell of
+            // the noise).
             let dt = step.dt;
-            type Chunk<'a> = ((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), (&'a [Vec3], &'a [Vec3]));
-            let field = |((u, points), (x, x_prev)): Chunk| {
-                noise::relative_air(&gusts, dt, x, x_prev, points, u);
-            };
+            type Chunk<'a> = (&'a mut [[f32; 4]], (&'a [[f32; 4]], &'a [[f32; 4]]));
+            let field = |(u, (x, x_prev)): Chunk| noise::relative_air(&gusts, dt, x, x_prev, u);
             const CHUNK: usize = 2048;
             if parallel {
                 let x = self.x.par_chunks(CHUNK).zip(self.x_prev.par_chunks(CHUNK));
-                let out = self.relative.par_chunks_mut(CHUNK).zip(self.points.par_chunks_mut(CHUNK));
-                out.zip(x).for_each(field);
+                self.relative.par_chunks_mut(CHUNK).zip(x).for_each(field);
             } else {
                 let x = self.x.chunks(CHUNK).zip(self.x_prev.chunks(CHUNK));
-                self.relative.chunks_mut(CHUNK).zip(self.points.chunks_mut(CHUNK)).zip(x).for_each(field);
+                self.relative.chunks_mut(CHUNK).zip(x).for_each(field);
             }
         }
         {
             // A third of each triangle's force, eight triangles at a time
             // (`force`), in chunks of triangles on the pool.
             const TRIANGLES: usize = 4096;
-            let (x, relative) = (&self.points, &self.relative);
+            let (x, relative) = (&self.x, &self.relative);
             type Chunk<'a> = (&'a mut [[f32; 4]], (&'a [[u32; 3]], &'a [f32]));
             let chunk = |(out, (triangles, masses)): Chunk| {
                 force::third_forces(&air, step.dt, x, relative, triangles, masses, out);

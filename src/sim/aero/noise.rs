@@ -16,8 +16,9 @@
 use glam::Vec3;
 
 use super::super::wind::Air;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, per_lane};
-use crate::sim::fast::simd::dispatch;
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real};
+use crate::sim::fast::rows::Rows;
+use crate::sim::fast::simd::{self, SimdLevel};
 
 /// RMS of one component of the noise before scaling, measured
 /// by `noise_has_unit_rms_per_component` over 200 000 samples.
@@ -82,89 +83,92 @@ impl Field {
     /// values are shared by the lanes, as the cache shares them between
     /// neighbouring particles.
     #[inline(always)]
-    pub(super) fn at_lanes(&self, x: Point<F32x8>, cell: &mut Cell) -> Option<Point<F32x8>> {
-        let mean = [F32x8::splat(self.mean.x), F32x8::splat(self.mean.y), F32x8::splat(self.mean.z)];
+    pub(super) fn at_lanes<T: Rows>(&self, x: Point<T>, cell: &mut Cell) -> Option<Point<T>> {
+        let mean = [T::splat(self.mean.x), T::splat(self.mean.y), T::splat(self.mean.z)];
         if self.steady {
             return Some(mean);
         }
-        let (shift, drift, scale) = (self.shift.to_array(), self.drift.to_array(), F32x8::splat(self.scale));
-        let q: Point<F32x8> = [
-            (x[0] - F32x8::splat(shift[0])) / scale + F32x8::splat(drift[0]),
-            (x[1] - F32x8::splat(shift[1])) / scale + F32x8::splat(drift[1]),
-            (x[2] - F32x8::splat(shift[2])) / scale + F32x8::splat(drift[2]),
+        let (shift, drift, scale) = (self.shift.to_array(), self.drift.to_array(), T::splat(self.scale));
+        let q: Point<T> = [
+            (x[0] - T::splat(shift[0])) / scale + T::splat(drift[0]),
+            (x[1] - T::splat(shift[1])) / scale + T::splat(drift[1]),
+            (x[2] - T::splat(shift[2])) / scale + T::splat(drift[2]),
         ];
-        // `floor` above is `f32::floor`, which is one instruction here.
-        let floor =
-            [per_lane!(|l| q[0].0[l].floor()), per_lane!(|l| q[1].0[l].floor()), per_lane!(|l| q[2].0[l].floor())];
-        let key = |l: usize| [floor[0].0[l] as i32, floor[1].0[l] as i32, floor[2].0[l] as i32];
-        let first = key(0);
-        if (1..LANES).any(|l| key(l) != first) {
+        let floor = [q[0].floor(), q[1].floor(), q[2].floor()];
+        // One cell when every lane's floor equals lane 0's (NaN never does;
+        // −0 and 0 are one cell, and each lane keeps its own floor in t).
+        let first = floor.map(|f| f.values()[0]);
+        if floor.iter().zip(first).any(|(f, first)| f.values() != [first; LANES]) {
             return None;
         }
-        let c = cell.corners_of(first);
+        let c = cell.corners_of(first.map(|f| f as i32));
         let t = [fade(q[0] - floor[0]), fade(q[1] - floor[1]), fade(q[2] - floor[2])];
         let mut out = mean;
         for (k, out) in out.iter_mut().enumerate() {
-            let corner = |i: usize| F32x8::splat(c[i][k]);
+            let corner = |i: usize| T::splat(c[i][k]);
             let x00 = lerp(corner(0), corner(1), t[0]);
             let x10 = lerp(corner(2), corner(3), t[0]);
             let x01 = lerp(corner(4), corner(5), t[0]);
             let x11 = lerp(corner(6), corner(7), t[0]);
             let noise = lerp(lerp(x00, x10, t[1]), lerp(x01, x11, t[1]), t[2]);
-            *out = *out + noise * F32x8::splat(self.amplitude);
+            *out = *out + noise * T::splat(self.amplitude);
         }
         Some(out)
     }
 }
 
-dispatch! {
-    /// u_i = v_air(x_i) − (x_i − x_prev_i)/`dt` for each particle into
-    /// `relative`, eight at a time where they share a cell of the noise (the
-    /// bits of one at a time in every case), and x_i into `points`, both as
-    /// `[x, y, z, 0]` rows (the form the triangles read).
-    pub(super) fn relative_air(
-        field: &Field,
-        dt: f32,
-        x: &[Vec3],
-        x_prev: &[Vec3],
-        points: &mut [[f32; 4]],
-        relative: &mut [[f32; 4]],
-    )
-        = relative_air_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+/// u_i = v_air(x_i) − (x_i − x_prev_i)/`dt` for each particle into
+/// `relative`, eight at a time where they share a cell of the noise (the
+/// bits of one at a time in every case); positions and velocities in and
+/// out as `[x, y, z, 0]` rows (with AVX2 one load a row and a transpose of
+/// eight rows, [`Rows`]).
+#[allow(unsafe_code)]
+pub(super) fn relative_air(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f32; 4]], relative: &mut [[f32; 4]]) {
+    #[cfg(target_arch = "x86_64")]
+    if simd::level() >= SimdLevel::Avx2 {
+        // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
+        // and FMA, the features `avx2::relative_air` is compiled for.
+        unsafe { avx2::relative_air(field, dt, x, x_prev, relative) };
+        return;
+    }
+    relative_in::<F32x8>(field, dt, x, x_prev, relative);
 }
 
-#[inline(always)]
-fn relative_air_body(
-    field: &Field,
-    dt: f32,
-    x: &[Vec3],
-    x_prev: &[Vec3],
-    points: &mut [[f32; 4]],
-    relative: &mut [[f32; 4]],
-) {
-    for (row, x) in points.iter_mut().zip(x) {
-        *row = x.extend(0.0).to_array();
+/// [`relative_air`] in AVX registers.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{Field, relative_in};
+    use crate::sim::fast::avx::Avx;
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn relative_air(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f32; 4]], relative: &mut [[f32; 4]]) {
+        relative_in::<Avx>(field, dt, x, x_prev, relative);
     }
+}
+
+/// [`relative_air`] on lanes of type `T`.
+#[inline(always)]
+fn relative_in<T: Rows>(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f32; 4]], relative: &mut [[f32; 4]]) {
     let mut cell = Cell::default();
+    let row = |r: &[f32; 4]| Vec3::new(r[0], r[1], r[2]);
     let groups = relative.chunks_mut(LANES).zip(x.chunks(LANES)).zip(x_prev.chunks(LANES));
     for ((u, x), x_prev) in groups {
-        if u.len() == LANES {
-            let at = [per_lane!(|l| x[l].x), per_lane!(|l| x[l].y), per_lane!(|l| x[l].z)];
-            if let Some(air) = field.at_lanes(at, &mut cell) {
-                let dt = F32x8::splat(dt);
-                let velocity = [
-                    (at[0] - per_lane!(|l| x_prev[l].x)) / dt,
-                    (at[1] - per_lane!(|l| x_prev[l].y)) / dt,
-                    (at[2] - per_lane!(|l| x_prev[l].z)) / dt,
-                ];
-                let (ux, uy, uz) = (air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2]);
-                for (l, u) in u.iter_mut().enumerate() {
-                    *u = [ux.0[l], uy.0[l], uz.0[l], 0.0];
-                }
+        if let (Ok(u), Ok(x), Ok(x_prev)) =
+            (<&mut [_; LANES]>::try_from(&mut *u), <&[_; LANES]>::try_from(x), <&[_; LANES]>::try_from(x_prev))
+        {
+            let index: [usize; LANES] = std::array::from_fn(|l| l);
+            let [px, py, pz, _] = T::gather(x, &index);
+            if let Some(air) = field.at_lanes([px, py, pz], &mut cell) {
+                let [qx, qy, qz, _] = T::gather(x_prev, &index);
+                let dt = T::splat(dt);
+                let velocity = [(px - qx) / dt, (py - qy) / dt, (pz - qz) / dt];
+                let zero = T::splat(0.0);
+                *u = T::to_rows([air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2], zero]);
                 continue;
             }
         }
-        for ((u, &x), &x_prev) in u.iter_mut().zip(x).zip(x_prev) {
+        for ((u, x), x_prev) in u.iter_mut().zip(x).zip(x_prev) {
+            let (x, x_prev) = (row(x), row(x_prev));
             *u = (field.at(x, &mut cell) - (x - x_prev) / dt).extend(0.0).to_array();
         }
     }
@@ -182,41 +186,41 @@ fn fade<T: Real>(f: T) -> T {
     f * f * f * (f * (f * T::splat(6.0) - T::splat(15.0)) + T::splat(10.0))
 }
 
-/// ⌊v⌋, exactly as `f32::floor` (which the x86-64 baseline build calls
-/// out of line): through the integer conversion while |v| < 2²³, above
-/// which every f32 is an integer already.
-#[inline]
-fn floor(v: f32) -> f32 {
-    if v.abs() < 8_388_608.0 {
-        let t = v as i32 as f32;
-        if t > v { t - 1.0 } else { t }
-    } else {
-        v
-    }
-}
-
-/// The lattice values at the eight corners of the noise cell last
+/// The lattice values at the eight corners of the last few noise cells
 /// visited: gusts are far larger than the particle spacing, so neighbouring
-/// particles mostly share a cell and its hashes are computed once.
+/// particles mostly share a cell and its hashes are computed once. Eight
+/// cells, each in the entry its key picks: a row of particles crosses a few
+/// cells and the next row starts in the first of them again (with one
+/// cell, a 256 × 256 cloth hashed ~40 cells for every 8 rows it visited).
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Cell {
-    key: Option<[i32; 3]>,
-    corners: [Vec3; 8],
+    entries: [(Option<[i32; 3]>, [Vec3; 8]); 8],
 }
 
 impl Cell {
     /// The lattice values at the corners of the cell `key`, hashed only when
-    /// it is not the cell last visited.
+    /// its entry holds another cell. Inlined: called out of line, the key
+    /// went through memory as three 4-byte stores and an 8-byte load, which
+    /// the CPU cannot forward (a stall on every call).
+    #[inline(always)]
     fn corners_of(&mut self, key: [i32; 3]) -> &[Vec3; 8] {
-        if self.key != Some(key) {
-            let [ix, iy, iz] = key;
-            for (k, corner) in self.corners.iter_mut().enumerate() {
-                let k = k as i32;
-                *corner = lattice(ix + (k & 1), iy + ((k >> 1) & 1), iz + (k >> 2));
-            }
-            self.key = Some(key);
+        let [ix, iy, iz] = key;
+        let entry = ix.wrapping_add(iy.wrapping_mul(3)).wrapping_add(iz.wrapping_mul(5)) & 7;
+        let (held, corners) = &mut self.entries[entry as usize];
+        if *held != Some(key) {
+            *held = Some(key);
+            hash_corners(key, corners);
         }
-        &self.corners
+        corners
+    }
+}
+
+/// The lattice values at the eight corners of the cell `key`.
+#[inline(never)]
+fn hash_corners([ix, iy, iz]: [i32; 3], corners: &mut [Vec3; 8]) {
+    for (k, corner) in corners.iter_mut().enumerate() {
+        let k = k as i32;
+        *corner = lattice(ix.wrapping_add(k & 1), iy.wrapping_add((k >> 1) & 1), iz.wrapping_add(k >> 2));
     }
 }
 
@@ -224,8 +228,9 @@ impl Cell {
 /// quintic interpolation (C² across cells, so the air's velocity and its
 /// gradient are smooth). One octave: a second at half the size costs as
 /// much again, and the flag's own flutter gives the finer detail.
+#[inline(always)]
 fn value_noise(q: Vec3, cell: &mut Cell) -> Vec3 {
-    let floor = Vec3::new(floor(q.x), floor(q.y), floor(q.z));
+    let floor = Vec3::new(Real::floor(q.x), Real::floor(q.y), Real::floor(q.z));
     let f = q - floor;
     let t = Vec3::new(fade(f.x), fade(f.y), fade(f.z));
     let key = [floor.x as i32, floor.y as i32, floor.z as i32];
@@ -262,18 +267,6 @@ mod tests {
     }
 
     #[test]
-    fn the_floor_is_f32s_floor() {
-        for v in
-            [0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999_999_8, -2.999_999_8, 8_388_607.5, -8_388_607.5, 1e9, -1e9, 3e38]
-        {
-            assert_eq!(floor(v), v.floor(), "{v}");
-        }
-        assert!(floor(f32::NAN).is_nan());
-        assert_eq!(floor(f32::INFINITY), f32::INFINITY);
-        assert_eq!(floor(f32::NEG_INFINITY), f32::NEG_INFINITY);
-    }
-
-    #[test]
     fn noise_has_unit_rms_per_component_and_is_smooth_and_deterministic() {
         let mut sum = Vec3::ZERO;
         let count = 200_000;
@@ -307,17 +300,25 @@ mod tests {
         let field = Field::new(&a, 0.37);
         let x: Vec<Vec3> = (0..203).map(|k| Vec3::new(k as f32 * 0.01, 0.3 + k as f32 * 1e-3, -0.2)).collect();
         let x_prev: Vec<Vec3> = x.iter().map(|p| *p - Vec3::new(0.001, -0.002, 0.0005)).collect();
-        let (mut points, mut relative) = (vec![[f32::NAN; 4]; x.len()], vec![[f32::NAN; 4]; x.len()]);
-        relative_air(&field, 0.01, &x, &x_prev, &mut points, &mut relative);
+        let rows = |p: &[Vec3]| p.iter().map(|p| p.extend(0.0).to_array()).collect::<Vec<_>>();
+        let mut relative = vec![[f32::NAN; 4]; x.len()];
+        relative_air(&field, 0.01, &rows(&x), &rows(&x_prev), &mut relative);
         let bits = |v: Vec3| v.extend(0.0).to_array().map(f32::to_bits);
         for k in 0..x.len() {
             let alone = field.at(x[k], &mut Cell::default()) - (x[k] - x_prev[k]) / 0.01;
             assert_eq!(relative[k].map(f32::to_bits), bits(alone), "particle {k}");
-            assert_eq!(points[k].map(f32::to_bits), bits(x[k]), "particle {k}");
         }
+        // The portable lanes give the level's bits (AVX2 loads and
+        // transposes where the CPU has it).
+        let mut portable = vec![[f32::NAN; 4]; x.len()];
+        relative_in::<F32x8>(&field, 0.01, &rows(&x), &rows(&x_prev), &mut portable);
+        assert_eq!(
+            portable.iter().map(|u| u.map(f32::to_bits)).collect::<Vec<_>>(),
+            relative.iter().map(|u| u.map(f32::to_bits)).collect::<Vec<_>>()
+        );
         // Both ways were taken: most groups share a cell, some do not.
         let lanes = |group: &[Vec3]| {
-            let at = [per_lane!(|l| group[l].x), per_lane!(|l| group[l].y), per_lane!(|l| group[l].z)];
+            let at = [0, 1, 2].map(|k| F32x8(std::array::from_fn(|l| group[l][k])));
             field.at_lanes(at, &mut Cell::default()).is_some()
         };
         let shared = x.chunks_exact(LANES).filter(|g| lanes(g)).count();

@@ -9,8 +9,8 @@
 
 use std::arch::x86_64::{
     __m128, __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_blendv_ps,
-    _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_max_ps, _mm256_mul_ps,
-    _mm256_or_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+    _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_floor_ps, _mm256_max_ps,
+    _mm256_mul_ps, _mm256_or_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
     _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
 use std::ops::{Add, Div, Mul, Sub};
@@ -180,5 +180,11 @@ impl Real for Avx {
             let bit = _mm256_set1_ps(-0.0);
             _mm256_or_ps(_mm256_andnot_ps(bit, self.0), _mm256_and_ps(bit, sign.0))
         })
+    }
+    /// `vroundps` toward −∞: `f32::floor`, −0, infinities and NaN included.
+    #[inline(always)]
+    fn floor(self) -> Self {
+        // SAFETY: an `Avx` exists only where AVX is available.
+        Avx(unsafe { _mm256_floor_ps(self.0) })
     }
 }

@@ -55,6 +55,16 @@ struct Renumbering {
 }
 
 impl GenericLayout {
+    /// Positions x and x − d in scene order, each as `to` makes it.
+    fn read_as<T>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T) {
+        for (k, (p, d)) in self.particles.iter().zip(&self.displacement).enumerate() {
+            let i = self.scene(k);
+            let x = Vec3::from_array(p.position);
+            positions[i] = to(x);
+            previous[i] = to(x - Vec3::from_array(*d));
+        }
+    }
+
     pub(crate) fn new(
         positions: &[Vec3],
         previous: &[Vec3],
@@ -207,11 +217,11 @@ impl Solver for GenericLayout {
     }
 
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        for (k, (p, d)) in self.particles.iter().zip(&self.displacement).enumerate() {
-            let i = self.scene(k);
-            positions[i] = Vec3::from_array(p.position);
-            previous[i] = positions[i] - Vec3::from_array(*d);
-        }
+        self.read_as(positions, previous, |p| p);
+    }
+
+    fn read_rows(&self, positions: &mut [[f32; 4]], previous: &mut [[f32; 4]]) {
+        self.read_as(positions, previous, |p| p.extend(0.0).to_array());
     }
 
     fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {

@@ -169,6 +169,9 @@ struct Tile {
     /// as a weightless (fixed) partner would. Empty when the tile has no
     /// padding, which is then never looked at.
     presence: Vec<F32x8>,
+    /// The scene index of each slot's particle in each lane (`u32::MAX` for
+    /// padding), so a phase given scene-order values can run tile by tile.
+    scene: Vec<[u32; LANES]>,
     /// The equal-mass shares of every slot for structural, bend and shear bars
     /// (see [`super::kernel::relax_pair_shared`]), kept in step with
     /// `weight` while every weight is 0 or 1.
@@ -440,8 +443,12 @@ impl GridLayout {
             tile.seam_multipliers = vec![0.0; tile.seams.len()];
         }
         let mut presence = vec![vec![F32x8::splat(0.0); slots]; tile_count];
-        for loc in &layout.locations {
+        for tile in &mut layout.tiles {
+            tile.scene = vec![[u32::MAX; LANES]; slots];
+        }
+        for (i, loc) in layout.locations.iter().enumerate() {
             presence[loc.tile as usize][loc.slot as usize].0[loc.lane as usize] = 1.0;
+            layout.tiles[loc.tile as usize].scene[loc.slot as usize][loc.lane as usize] = i as u32;
         }
         for (tile, presence) in layout.tiles.iter_mut().zip(presence) {
             if presence.iter().any(|p| p.0.contains(&0.0)) {

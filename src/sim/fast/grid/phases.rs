@@ -19,6 +19,31 @@ use crate::sim::tether::Tethers;
 /// or from scene order.
 const CHUNK: usize = 4096;
 
+impl GridLayout {
+    /// Positions x and x − d in scene order, each as `to` makes it; in
+    /// chunks on the thread pool for large grids.
+    fn read_as<T: Send>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T + Sync) {
+        let tiles = &self.tiles;
+        let chunk = |((locations, positions), previous): ((&[super::Location], &mut [T]), &mut [T])| {
+            for ((loc, x), x_prev) in locations.iter().zip(positions).zip(previous) {
+                let tile = &tiles[loc.tile as usize];
+                let (s, l) = (loc.slot as usize, loc.lane as usize);
+                let (p, d) = (&tile.position[s], &tile.displacement[s]);
+                let at = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
+                *x = to(at);
+                *x_prev = to(at - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]));
+            }
+        };
+        if self.parallel() {
+            let parts = self.locations.par_chunks(CHUNK).zip(positions.par_chunks_mut(CHUNK));
+            parts.zip(previous.par_chunks_mut(CHUNK)).for_each(chunk);
+        } else {
+            let parts = self.locations.chunks(CHUNK).zip(positions.chunks_mut(CHUNK));
+            parts.zip(previous.chunks_mut(CHUNK)).for_each(chunk);
+        }
+    }
+}
+
 impl Solver for GridLayout {
     fn integrate(&mut self, s: &Substep) {
         let (keep, accel, gravity) = match s.first {
@@ -35,20 +60,26 @@ impl Solver for GridLayout {
         });
     }
 
-    /// Scatters the scene-order displacements to the lanes, times each
-    /// particle's weight.
+    /// Adds the scene-order displacements to the lanes, times each
+    /// particle's weight: tile by tile (on the pool for large grids), each
+    /// slot reading its particles' displacements through `Tile::scene`.
     fn push(&mut self, displacement: &[Vec3]) {
-        for (i, delta) in displacement.iter().enumerate() {
-            let loc = self.locations[i];
-            let l = loc.lane as usize;
-            let (p, _, w) = self.cell_mut(loc);
-            let w = w.0[l];
-            if w > 0.0 {
-                for k in 0..3 {
-                    p[k].0[l] += w * delta[k];
+        let parallel = self.parallel();
+        for_each_tile(&mut self.tiles, parallel, |tile| {
+            for ((p, w), scene) in tile.position.iter_mut().zip(&tile.weight).zip(&tile.scene) {
+                for (l, &i) in scene.iter().enumerate() {
+                    // Padding weighs 0 and is never read.
+                    let w = w.0[l];
+                    if w > 0.0 {
+                        let delta = displacement[i as usize];
+                        for k in 0..3 {
+                            p[k].0[l] += w * delta[k];
+                        }
+                    }
                 }
             }
-        }
+            f32::NEG_INFINITY
+        });
     }
 
     /// Tethers, then up to `relaxations` sweeps; when `tolerance > 0`, stops
@@ -169,23 +200,11 @@ impl Solver for GridLayout {
     /// on the thread pool for large cloths (each particle read alone: the
     /// same bits).
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
-        let tiles = &self.tiles;
-        let chunk = |((locations, positions), previous): ((&[super::Location], &mut [Vec3]), &mut [Vec3])| {
-            for ((loc, x), x_prev) in locations.iter().zip(positions).zip(previous) {
-                let tile = &tiles[loc.tile as usize];
-                let (s, l) = (loc.slot as usize, loc.lane as usize);
-                let (p, d) = (&tile.position[s], &tile.displacement[s]);
-                *x = Vec3::new(p[0].0[l], p[1].0[l], p[2].0[l]);
-                *x_prev = *x - Vec3::new(d[0].0[l], d[1].0[l], d[2].0[l]);
-            }
-        };
-        if self.parallel() {
-            let parts = self.locations.par_chunks(CHUNK).zip(positions.par_chunks_mut(CHUNK));
-            parts.zip(previous.par_chunks_mut(CHUNK)).for_each(chunk);
-        } else {
-            let parts = self.locations.chunks(CHUNK).zip(positions.chunks_mut(CHUNK));
-            parts.zip(previous.chunks_mut(CHUNK)).for_each(chunk);
-        }
+        self.read_as(positions, previous, |p| p);
+    }
+
+    fn read_rows(&self, positions: &mut [[f32; 4]], previous: &mut [[f32; 4]]) {
+        self.read_as(positions, previous, |p| p.extend(0.0).to_array());
     }
 
     fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
