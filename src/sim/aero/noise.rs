@@ -150,28 +150,29 @@ mod avx2 {
 #[inline(always)]
 fn relative_in<T: Rows>(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f32; 4]], relative: &mut [[f32; 4]]) {
     let mut cell = Cell::default();
-    let row = |r: &[f32; 4]| Vec3::new(r[0], r[1], r[2]);
-    let groups = relative.chunks_mut(LANES).zip(x.chunks(LANES)).zip(x_prev.chunks(LANES));
-    for ((u, x), x_prev) in groups {
-        if let (Ok(u), Ok(x), Ok(x_prev)) =
-            (<&mut [_; LANES]>::try_from(&mut *u), <&[_; LANES]>::try_from(x), <&[_; LANES]>::try_from(x_prev))
-        {
-            let index: [usize; LANES] = std::array::from_fn(|l| l);
-            let [px, py, pz, _] = T::gather(x, &index);
-            if let Some(air) = field.at_lanes([px, py, pz], &mut cell) {
-                let [qx, qy, qz, _] = T::gather(x_prev, &index);
-                let dt = T::splat(dt);
-                let velocity = [(px - qx) / dt, (py - qy) / dt, (pz - qz) / dt];
-                let zero = T::splat(0.0);
-                *u = T::to_rows([air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2], zero]);
-                continue;
-            }
-        }
+    let one_at_a_time = |u: &mut [[f32; 4]], x: &[[f32; 4]], x_prev: &[[f32; 4]], cell: &mut Cell| {
         for ((u, x), x_prev) in u.iter_mut().zip(x).zip(x_prev) {
-            let (x, x_prev) = (row(x), row(x_prev));
-            *u = (field.at(x, &mut cell) - (x - x_prev) / dt).extend(0.0).to_array();
+            let (x, x_prev) = (Vec3::new(x[0], x[1], x[2]), Vec3::new(x_prev[0], x_prev[1], x_prev[2]));
+            *u = (field.at(x, cell) - (x - x_prev) / dt).extend(0.0).to_array();
+        }
+    };
+    let (groups, rest) = x.as_chunks::<LANES>();
+    let (previous, previous_rest) = x_prev.as_chunks::<LANES>();
+    let (out, out_rest) = relative.as_chunks_mut::<LANES>();
+    let index: [usize; LANES] = std::array::from_fn(|l| l);
+    for ((u, x), x_prev) in out.iter_mut().zip(groups).zip(previous) {
+        let [px, py, pz, _] = T::gather(x, &index);
+        if let Some(air) = field.at_lanes([px, py, pz], &mut cell) {
+            let [qx, qy, qz, _] = T::gather(x_prev, &index);
+            let dt = T::splat(dt);
+            let velocity = [(px - qx) / dt, (py - qy) / dt, (pz - qz) / dt];
+            let zero = T::splat(0.0);
+            *u = T::to_rows([air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2], zero]);
+        } else {
+            one_at_a_time(u, x, x_prev, &mut cell);
         }
     }
+    one_at_a_time(out_rest, rest, previous_rest, &mut cell);
 }
 
 /// a + (b − a) t: for `f32` coordinates or lanes of them.
