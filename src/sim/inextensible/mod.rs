@@ -388,19 +388,35 @@ impl FastProjection {
     /// strain.
     fn smooth(&mut self, weights: &[f32], beta: f64, step: &ProjectionStep) -> f64 {
         let mut done = 0;
-        let mut strain = f64::INFINITY;
         while done < step.smoothing {
             let batch = SMOOTHING_BATCH.min(step.smoothing - done);
-            for _ in 0..batch {
-                self.smoothing.pass(&mut self.x, &mut self.lambda, &self.rest, beta);
-            }
+            self.smoothing.passes(batch, &mut self.x, &mut self.lambda, &self.rest, beta);
             done += batch;
-            strain = self.measure(weights);
+            let strain = self.strain(weights);
             if strain <= f64::from(step.tolerance) {
-                break;
+                // Within the tolerance: no Newton iteration follows, and
+                // the directions are not needed.
+                return strain;
             }
         }
-        strain
+        // A Newton iteration may follow: it needs the directions and
+        // residuals at the positions the passes left.
+        self.measure(weights)
+    }
+
+    /// The largest |C_j|/L_j over edges with a free end, as [`Self::measure`]
+    /// computes it (the same bits), without the directions and residuals:
+    /// between batches of passes only the strain is looked at, and the
+    /// directions' three divisions an edge were most of a measure's cost.
+    fn strain(&self, weights: &[f32]) -> f64 {
+        let mut largest = 0.0f64;
+        for (&[a, b], &rest) in self.ends.iter().zip(&self.rest) {
+            if weights[a as usize] > 0.0 || weights[b as usize] > 0.0 {
+                let length = (self.x[a as usize] - self.x[b as usize]).as_dvec3().length();
+                largest = largest.max((length - rest).abs() / rest);
+            }
+        }
+        largest
     }
 
     /// Every edge's direction and residual C_j at `x`; returns the
