@@ -77,16 +77,17 @@ impl Field {
 }
 
 impl Field {
-    /// v_air at eight points in lanes, each lane with the bits of
-    /// [`Self::at`]; `None` when the points are not all in one cell of the
-    /// noise (then each goes through [`Self::at`]). The cell's lattice
-    /// values are shared by the lanes, as the cache shares them between
-    /// neighbouring particles.
+    /// v_air at eight points in lanes, and how many of the first lanes lie
+    /// in lane 0's cell of the noise: those k lanes have the bits of
+    /// [`Self::at`], the others are to be dropped (their points go in the
+    /// next group). `None` when lane 0's cell is not a cell (a NaN). The
+    /// cell's lattice values are shared by the lanes, as the cache shares
+    /// them between neighbouring particles.
     #[inline(always)]
-    pub(super) fn at_lanes<T: Rows>(&self, x: Point<T>, cell: &mut Cell) -> Option<Point<T>> {
+    pub(super) fn at_lanes<T: Rows>(&self, x: Point<T>, cell: &mut Cell) -> Option<(Point<T>, usize)> {
         let mean = [T::splat(self.mean.x), T::splat(self.mean.y), T::splat(self.mean.z)];
         if self.steady {
-            return Some(mean);
+            return Some((mean, LANES));
         }
         let (shift, drift, scale) = (self.shift.to_array(), self.drift.to_array(), T::splat(self.scale));
         let q: Point<T> = [
@@ -95,10 +96,13 @@ impl Field {
             (x[2] - T::splat(shift[2])) / scale + T::splat(drift[2]),
         ];
         let floor = [q[0].floor(), q[1].floor(), q[2].floor()];
-        // One cell when every lane's floor equals lane 0's (NaN never does;
-        // −0 and 0 are one cell, and each lane keeps its own floor in t).
-        let first = floor.map(|f| f.values()[0]);
-        if floor.iter().zip(first).any(|(f, first)| f.values() != [first; LANES]) {
+        // A lane is in lane 0's cell when its floors equal lane 0's (NaN
+        // never does; −0 and 0 are one cell, and each lane keeps its own
+        // floor in t).
+        let floors = floor.map(|f| f.values());
+        let first = floors.map(|f| f[0]);
+        let shared = (0..LANES).take_while(|&l| floors.iter().zip(first).all(|(f, first)| f[l] == first)).count();
+        if shared == 0 {
             return None;
         }
         let c = cell.corners_of(first.map(|f| f as i32));
@@ -113,7 +117,7 @@ impl Field {
             let noise = lerp(lerp(x00, x10, t[1]), lerp(x01, x11, t[1]), t[2]);
             *out = *out + noise * T::splat(self.amplitude);
         }
-        Some(out)
+        Some((out, shared))
     }
 }
 
@@ -156,23 +160,28 @@ fn relative_in<T: Rows>(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f32; 
             *u = (field.at(x, cell) - (x - x_prev) / dt).extend(0.0).to_array();
         }
     };
-    let (groups, rest) = x.as_chunks::<LANES>();
-    let (previous, previous_rest) = x_prev.as_chunks::<LANES>();
-    let (out, out_rest) = relative.as_chunks_mut::<LANES>();
-    let index: [usize; LANES] = std::array::from_fn(|l| l);
-    for ((u, x), x_prev) in out.iter_mut().zip(groups).zip(previous) {
+    // Eight particles from `next`: the first k in one noise cell take the
+    // lanes' values, and the next group starts at the first particle of the
+    // next cell (so a group across a cell's edge costs two groups, not eight
+    // particles one at a time).
+    let mut next = 0;
+    while next + LANES <= relative.len() {
+        let index: [usize; LANES] = std::array::from_fn(|l| next + l);
         let [px, py, pz, _] = T::gather(x, &index);
-        if let Some(air) = field.at_lanes([px, py, pz], &mut cell) {
-            let [qx, qy, qz, _] = T::gather(x_prev, &index);
-            let dt = T::splat(dt);
-            let velocity = [(px - qx) / dt, (py - qy) / dt, (pz - qz) / dt];
-            let zero = T::splat(0.0);
-            *u = T::to_rows([air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2], zero]);
-        } else {
-            one_at_a_time(u, x, x_prev, &mut cell);
-        }
+        let Some((air, shared)) = field.at_lanes([px, py, pz], &mut cell) else {
+            one_at_a_time(&mut relative[next..next + 1], &x[next..], &x_prev[next..], &mut cell);
+            next += 1;
+            continue;
+        };
+        let [qx, qy, qz, _] = T::gather(x_prev, &index);
+        let dt = T::splat(dt);
+        let velocity = [(px - qx) / dt, (py - qy) / dt, (pz - qz) / dt];
+        let zero = T::splat(0.0);
+        let rows = T::to_rows([air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2], zero]);
+        relative[next..next + shared].copy_from_slice(&rows[..shared]);
+        next += shared;
     }
-    one_at_a_time(out_rest, rest, previous_rest, &mut cell);
+    one_at_a_time(&mut relative[next..], &x[next..], &x_prev[next..], &mut cell);
 }
 
 /// a + (b − a) t: for `f32` coordinates or lanes of them.
@@ -294,40 +303,44 @@ mod tests {
     #[test]
     fn lanes_give_each_particle_the_bits_of_one_at_a_time() {
         // 203 particles along a 2.03 m line in 8 m/s air with 30 % gusts of
-        // 1 m, at t = 0.37 s: groups of eight inside one noise cell take the
-        // lanes, groups across a cell edge and the last three go one at a
+        // 1 m, at t = 0.37 s, one of them lost (NaN): groups of eight take
+        // the lanes up to a cell's edge (or the lost particle), the next
+        // group starting there; the lost one and the last few go one at a
         // time. Every particle gets the bits of the one-particle form.
         let a = Air { gusts: 0.3, ..air() };
         let field = Field::new(&a, 0.37);
-        let x: Vec<Vec3> = (0..203).map(|k| Vec3::new(k as f32 * 0.01, 0.3 + k as f32 * 1e-3, -0.2)).collect();
+        let mut x: Vec<Vec3> = (0..203).map(|k| Vec3::new(k as f32 * 0.01, 0.3 + k as f32 * 1e-3, -0.2)).collect();
+        x[100].y = f32::NAN;
         let x_prev: Vec<Vec3> = x.iter().map(|p| *p - Vec3::new(0.001, -0.002, 0.0005)).collect();
         let rows = |p: &[Vec3]| p.iter().map(|p| p.extend(0.0).to_array()).collect::<Vec<_>>();
         let mut relative = vec![[f32::NAN; 4]; x.len()];
         relative_air(&field, 0.01, &rows(&x), &rows(&x_prev), &mut relative);
         let bits = |v: Vec3| v.extend(0.0).to_array().map(f32::to_bits);
-        for k in 0..x.len() {
+        for k in (0..x.len()).filter(|&k| k != 100) {
             let alone = field.at(x[k], &mut Cell::default()) - (x[k] - x_prev[k]) / 0.01;
             assert_eq!(relative[k].map(f32::to_bits), bits(alone), "particle {k}");
         }
+        assert!(relative[100][..3].iter().all(|u| u.is_nan()), "the lost particle's air is unknown");
         // The portable lanes give the level's bits (AVX2 loads and
         // transposes where the CPU has it).
         let mut portable = vec![[f32::NAN; 4]; x.len()];
         relative_in::<F32x8>(&field, 0.01, &rows(&x), &rows(&x_prev), &mut portable);
-        assert_eq!(
-            portable.iter().map(|u| u.map(f32::to_bits)).collect::<Vec<_>>(),
-            relative.iter().map(|u| u.map(f32::to_bits)).collect::<Vec<_>>()
-        );
-        // Both ways were taken: most groups share a cell, some do not.
+        let bits_but_lost = |u: &[[f32; 4]]| {
+            u.iter().enumerate().filter(|&(k, _)| k != 100).map(|(_, u)| u.map(f32::to_bits)).collect::<Vec<_>>()
+        };
+        assert_eq!(bits_but_lost(&portable), bits_but_lost(&relative));
+        // Both ways were taken: most groups of eight share a cell, some
+        // cross an edge.
         let lanes = |group: &[Vec3]| {
             let at = [0, 1, 2].map(|k| F32x8(std::array::from_fn(|l| group[l][k])));
-            field.at_lanes(at, &mut Cell::default()).is_some()
+            field.at_lanes(at, &mut Cell::default()).is_some_and(|(_, shared)| shared == LANES)
         };
         let shared = x.chunks_exact(LANES).filter(|g| lanes(g)).count();
         assert!((20..25).contains(&shared), "{shared} of 25 groups in lanes");
         // Steady air: the mean in every lane.
         let steady = Field::new(&air(), 0.37);
         let at = [F32x8::splat(1.0), F32x8::splat(2.0), F32x8::splat(3.0)];
-        assert_eq!(steady.at_lanes(at, &mut Cell::default()).map(|v| v[0].0), Some([8.0; LANES]));
+        assert_eq!(steady.at_lanes(at, &mut Cell::default()).map(|(v, k)| (v[0].0, k)), Some(([8.0; LANES], LANES)));
     }
 
     #[test]
