@@ -122,11 +122,10 @@ mod avx2 {
 }
 
 /// The force each corner takes, a third of the drag plus lift, on eight
-/// triangles of mass `mass` (kg)
-/// with corners `x` (m) where the air moves at `relative` (m/s) to the
-/// corners; zero for a triangle without area. Per lane, the operations of
-/// one triangle in the same order; a NaN anywhere gives a NaN or zero force
-/// as it would alone.
+/// triangles of mass `mass` (kg) with corners `x` (m) where the air moves
+/// at `relative` (m/s) to the corners; zero for a triangle without area.
+/// Per lane, the operations of one triangle in the same order; a NaN
+/// anywhere gives a NaN or zero force as it would alone.
 ///
 /// The factors of 3 (u is the mean of three corners, each corner takes a
 /// third) are folded into constants computed once a call: with s = 3u the
