@@ -184,15 +184,6 @@ impl Solver for ReferenceSolver {
         positions.copy_from_slice(&self.positions);
         previous.copy_from_slice(&self.previous);
     }
-    fn read_rows(&self, positions: &mut [[f32; 4]], previous: &mut [[f32; 4]]) {
-        let rows = |out: &mut [[f32; 4]], from: &[Vec3]| {
-            for (row, p) in out.iter_mut().zip(from) {
-                *row = p.extend(0.0).to_array();
-            }
-        };
-        rows(positions, &self.positions);
-        rows(previous, &self.previous);
-    }
     fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3) {
         self.positions[index] = position;
         self.previous[index] = previous;

@@ -132,8 +132,16 @@ pub trait Solver: Debug + Send + Sync {
     /// Current and previous positions, scene order.
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]);
     /// [`Solver::read`] as `[x, y, z, 0]` rows (the same bits), the form the
-    /// lane kernels load one row at a time.
-    fn read_rows(&self, positions: &mut [[f32; 4]], previous: &mut [[f32; 4]]);
+    /// lane kernels load one row at a time. The default goes through
+    /// [`Solver::read`] and two buffers of its own (the reference solver
+    /// uses it); the fast layouts write the rows directly.
+    fn read_rows(&self, positions: &mut [[f32; 4]], previous: &mut [[f32; 4]]) {
+        let (mut x, mut x_prev) = (vec![Vec3::ZERO; positions.len()], vec![Vec3::ZERO; previous.len()]);
+        self.read(&mut x, &mut x_prev);
+        for (row, p) in positions.iter_mut().zip(&x).chain(previous.iter_mut().zip(&x_prev)) {
+            *row = p.extend(0.0).to_array();
+        }
+    }
     /// Sets one particle's position and previous position.
     fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3);
     /// Sets one particle's inverse mass (relative to m; 0 fixes it). A write,
