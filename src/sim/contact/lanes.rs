@@ -40,13 +40,39 @@ impl ContactStep<'_> {
     }
 
     /// The lanes of `lanes` whose box of `x0` and `x` collider `k` may
-    /// touch: [`Self::may_touch`], the test `resolve` makes, lane by lane.
+    /// touch: [`Self::may_touch`], the test `resolve` makes, in lanes (the
+    /// same comparisons of the same values: `f32::min` and `max` as
+    /// `Vec3::min` and `max`, the plane's distance in `Vec3::dot`'s order).
+    /// One lane at a time, it was 4 % of a draped 256 × 256 cloth's step.
     #[inline(always)]
     fn boxed_lanes(&self, k: usize, lanes: u8, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        (0..LANES).filter(|l| lanes & (1 << l) != 0).fold(0u8, |m, l| {
-            let (a, b) = (lane(x0, l), lane(x, l));
-            m | (u8::from(self.may_touch(k, a.min(b), a.max(b))) << l)
-        })
+        let lo: Point<F32x8> = std::array::from_fn(|i| F32x8(std::array::from_fn(|l| x0[i].0[l].min(x[i].0[l]))));
+        let hi: Point<F32x8> = std::array::from_fn(|i| F32x8(std::array::from_fn(|l| x0[i].0[l].max(x[i].0[l]))));
+        let c = &self.colliders[k];
+        let mut touching = 0u8;
+        match (c.bounds, c.plane) {
+            (Some((b0, b1)), _) => {
+                let (b0, b1) = (b0.to_array(), b1.to_array());
+                for l in 0..LANES {
+                    let below = lo[0].0[l] <= b1[0] && lo[1].0[l] <= b1[1] && lo[2].0[l] <= b1[2];
+                    let above = hi[0].0[l] >= b0[0] && hi[1].0[l] >= b0[1] && hi[2].0[l] >= b0[2];
+                    touching |= u8::from(below && above) << l;
+                }
+            }
+            (None, Some(plane)) => {
+                for (n, point) in plane {
+                    // The box corner deepest on the plane's closed side.
+                    let corner: Point<F32x8> = std::array::from_fn(|i| if n[i] >= 0.0 { lo[i] } else { hi[i] });
+                    let offset = sub(corner, point.to_array().map(F32x8::splat));
+                    let distance = dot(offset, n.to_array().map(F32x8::splat));
+                    for l in 0..LANES {
+                        touching |= u8::from(distance.0[l] < self.thickness) << l;
+                    }
+                }
+            }
+            (None, None) => touching = u8::MAX,
+        }
+        touching & lanes
     }
 
     /// The lanes whose path `x0 → x` stays clear of a still sphere (see
