@@ -102,7 +102,7 @@ impl Rows for Avx {
     }
 }
 
-/// The inverse of [`transpose_rows`]: four lanes [x, y, z, w] as four
+/// The inverse of [`gather_rows`]'s transpose: four lanes [x, y, z, w] as four
 /// registers, register l holding row l in its low half and row l + 4 in its
 /// high half. Same contract as [`Avx`].
 #[inline(always)]

@@ -409,27 +409,34 @@ impl FastProjection {
     /// between batches of passes only the strain is looked at, and the
     /// directions' three divisions an edge were most of a measure's cost.
     fn strain(&self, weights: &[f32]) -> f64 {
-        let mut largest = 0.0f64;
-        for (&[a, b], &rest) in self.ends.iter().zip(&self.rest) {
-            if weights[a as usize] > 0.0 || weights[b as usize] > 0.0 {
-                let length = (self.x[a as usize] - self.x[b as usize]).as_dvec3().length();
-                largest = largest.max((length - rest).abs() / rest);
-            }
-        }
-        largest
+        self.largest_strain(weights, |j| self.edge(j).length() - self.rest[j])
     }
 
     /// Every edge's direction and residual C_j at `x`; returns the
     /// largest |C_j|/L_j over edges with a free end.
     fn measure(&mut self, weights: &[f32]) -> f64 {
-        let mut largest = 0.0f64;
-        for (j, &[a, b]) in self.ends.iter().enumerate() {
-            let e = (self.x[a as usize] - self.x[b as usize]).as_dvec3();
+        for j in 0..self.ends.len() {
+            let e = self.edge(j);
             let length = e.length();
             self.direction[j] = if length > 1e-12 * self.rest[j] { e / length } else { DVec3::ZERO };
             self.residual[j] = length - self.rest[j];
+        }
+        self.largest_strain(weights, |j| self.residual[j])
+    }
+
+    /// Edge j's vector x_a − x_b at `x`, in f64.
+    fn edge(&self, j: usize) -> DVec3 {
+        let [a, b] = self.ends[j];
+        (self.x[a as usize] - self.x[b as usize]).as_dvec3()
+    }
+
+    /// The largest |C_j|/L_j over the edges with a free end, C_j being
+    /// `residual(j)`.
+    fn largest_strain(&self, weights: &[f32], residual: impl Fn(usize) -> f64) -> f64 {
+        let mut largest = 0.0f64;
+        for (j, &[a, b]) in self.ends.iter().enumerate() {
             if weights[a as usize] > 0.0 || weights[b as usize] > 0.0 {
-                largest = largest.max(self.residual[j].abs() / self.rest[j]);
+                largest = largest.max(residual(j).abs() / self.rest[j]);
             }
         }
         largest
