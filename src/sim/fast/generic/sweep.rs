@@ -257,15 +257,17 @@ mod tests {
 
     #[test]
     fn blocks_give_the_same_bits_on_one_thread_and_on_two() {
-        // 130 × 130 = 16 900 particles: two blocks and a boundary between
-        // them; unequal masses and compliant bars as above.
+        // 130 × 130 = 16 900 particles, more than one block holds: four
+        // blocks (a multiple of four) and a boundary between them; unequal
+        // masses and compliant bars as above.
         let (positions, bars) = crumpled_sheet(130);
         let weights: Vec<f32> = (0..positions.len()).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
         let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
-        assert_eq!(layout.bars.blocks.len(), 2);
+        assert_eq!(layout.bars.blocks.len(), 4);
         let (boundary, all) = layout.bars.boundary_share();
-        // The cut is one row of 130 particles: its bars to the next two rows.
-        assert!(boundary > 130 && boundary < all / 20, "boundary {boundary} of {all}");
+        // Three cuts, each along a row of 130 particles: at least its bars to
+        // the next row, and far fewer than 1 bar in 20.
+        assert!(boundary > 3 * 130 && boundary < all / 20, "boundary {boundary} of {all}");
         let sweep = Sweep { betas: [0.3, 2.0, 0.7], omega: 1.2, tolerance: 0.0 };
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
