@@ -83,6 +83,13 @@ pub fn new(
     }
 }
 
+/// The lane layout alone, for a grid mesh whose bars it takes (complete
+/// classes of one kind and rest length each), or `None`: the inextensible
+/// phase runs its passes over a grid's edges on it.
+pub(crate) fn grid_lanes(mesh: &ClothMesh, positions: &[Vec3], inverse_mass: &[f32]) -> Option<Box<dyn Solver>> {
+    GridLayout::new(mesh, positions, positions, inverse_mass, None).map(|g| Box::new(g) as Box<dyn Solver>)
+}
+
 /// The instruction set the kernels run with ([`simd::level`]).
 pub(crate) fn simd_name() -> &'static str {
     simd::level().label()

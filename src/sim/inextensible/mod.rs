@@ -45,7 +45,8 @@
 //! wind moves its free edge further than a bar's length per step) the
 //! linearisation overshoots locally. `smoothing` Gauss–Seidel passes over
 //! the edges alone (the seed's projection, over-relaxed by ω = 1.8, run as
-//! batches of edges that share no particle) run before the first iteration
+//! batches of edges that share no particle; on a grid in the fast solver's
+//! lane layout) run before the first iteration
 //! (unless the last factor still fits: then one solve is cheaper) and after
 //! each one that leaves an edge outside the tolerance, in batches of 8
 //! with a measure after each, stopping once every edge is within the
