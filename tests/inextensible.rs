@@ -35,6 +35,23 @@ fn the_seed_scene_inextensible_stays_within_one_percent_and_the_seed_method_does
     assert!(typical_seed > 0.1, "the seed's: typical {typical_seed}");
 }
 
+#[test]
+fn the_faster_variant_stays_within_the_targets_too() {
+    // The README's variant for twice the fast solver's 20 passes: 8 coarse
+    // passes, a 1.2 % tolerance, up to 96 edge passes. The tolerance bounds
+    // every step's edges (worst ≤ 1.2 % < 2 %); the typical step lands
+    // below it (the accuracy benchmark: 0.83 % over 100 s). Targets as above.
+    let scene = drape::scene::load("seed-inextensible").unwrap();
+    let params =
+        SolverParams { coarse_passes: 8, newton_tolerance: 0.012, newton_smoothing: 96, ..scene.params.clone() };
+    let mut sim = Simulation::new(scene.mesh.clone(), params).unwrap();
+    let (typical, worst) = edge_strain_run(&mut sim, 40, 200);
+    eprintln!("variant: typical {typical}, worst {worst}");
+    assert!(typical <= 0.01 && worst <= 0.02, "typical {typical}, worst {worst}");
+    // The looser tolerance is what it runs at: some steps end near it.
+    assert!(worst > 0.008, "worst {worst}");
+}
+
 /// 21 nodes, 20 links of 7.5 cm, ends 1 m apart at y = 1, starting as a V.
 fn chain() -> ClothMesh {
     let (links, link, span) = (20usize, 0.075f32, 1.0f32);
