@@ -20,6 +20,7 @@ macro_rules! scene {
 pub const BUNDLED: &[BundledScene] = &[
     scene!("seed"),
     scene!("seed-inextensible"),
+    scene!("seed-inextensible-fast"),
     scene!("flag"),
     scene!("flag-seed"),
     scene!("hammock"),
