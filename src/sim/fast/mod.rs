@@ -63,7 +63,7 @@ use super::mesh::{Bar, ClothMesh};
 use super::step::Solver;
 use super::tether::Tethers;
 use generic::GenericLayout;
-use grid::GridLayout;
+pub(crate) use grid::GridLayout;
 
 /// The fast solver for a mesh: the lane layout for a grid mesh, the
 /// coloured layout otherwise. `inverse_mass` is each particle's weight
@@ -86,8 +86,8 @@ pub fn new(
 /// The lane layout alone, for a grid mesh whose bars it takes (complete
 /// classes of one kind and rest length each), or `None`: the inextensible
 /// phase runs its passes over a grid's edges on it.
-pub(crate) fn grid_lanes(mesh: &ClothMesh, positions: &[Vec3], inverse_mass: &[f32]) -> Option<Box<dyn Solver>> {
-    GridLayout::new(mesh, positions, positions, inverse_mass, None).map(|g| Box::new(g) as Box<dyn Solver>)
+pub(crate) fn grid_lanes(mesh: &ClothMesh, positions: &[Vec3], inverse_mass: &[f32]) -> Option<GridLayout> {
+    GridLayout::new(mesh, positions, positions, inverse_mass, None)
 }
 
 /// The instruction set the kernels run with ([`simd::level`]).

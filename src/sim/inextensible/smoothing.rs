@@ -31,6 +31,7 @@ use std::ops::Range;
 
 use glam::Vec3;
 
+use crate::sim::fast::GridLayout;
 use crate::sim::fast::kernel::{LANES, Point, Real, dot, scale, sub};
 use crate::sim::fast::simd::{self, SimdLevel};
 use crate::sim::mesh::{BarKind, ClothMesh, MeshParts};
@@ -75,20 +76,16 @@ pub(super) struct Smoothing {
 }
 
 /// A grid's edges in the fast solver's lane layout, for the rigid passes.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 struct EdgeLanes {
     /// The lane layout over the edges alone.
-    solver: Box<dyn Solver>,
-    /// The weights it holds (relative inverse masses, scene order).
+    layout: GridLayout,
+    /// The weights it is to hold (relative inverse masses, scene order).
     weights: Vec<f32>,
+    /// Whether `weights` changed since they were written to `layout`.
+    reweigh: bool,
     /// Where [`Solver::read`] writes x − d (unused).
     previous: Vec<Vec3>,
-}
-
-impl Clone for EdgeLanes {
-    fn clone(&self) -> Self {
-        Self { solver: self.solver.boxed_clone(), weights: self.weights.clone(), previous: self.previous.clone() }
-    }
 }
 
 impl EdgeLanes {
@@ -107,26 +104,31 @@ impl EdgeLanes {
         })
         .ok()?;
         let weights: Vec<f32> = mesh.fixed().iter().map(|&f| if f { 0.0 } else { 1.0 }).collect();
-        let solver = crate::sim::fast::grid_lanes(&edges, mesh.positions(), &weights)?;
-        Some(Self { solver, weights, previous: vec![Vec3::ZERO; mesh.particle_count()] })
+        let layout = crate::sim::fast::grid_lanes(&edges, mesh.positions(), &weights)?;
+        Some(Self { layout, weights, reweigh: false, previous: vec![Vec3::ZERO; mesh.particle_count()] })
     }
 
-    /// Writes the weights that changed.
+    /// Keeps `weights` for the next passes.
     fn set_weights(&mut self, weights: &[f32]) {
-        for (i, (held, &w)) in self.weights.iter_mut().zip(weights).enumerate() {
-            if held.to_bits() != w.to_bits() {
-                *held = w;
-                self.solver.set_inverse_mass(i, w);
-            }
+        if self.weights != weights {
+            self.weights.copy_from_slice(weights);
+            self.reweigh = true;
         }
     }
 
     /// `count` rigid passes over the edges, moving `x` (scene order).
     fn passes(&mut self, count: u32, x: &mut [Vec3]) {
-        for (i, &p) in x.iter().enumerate() {
-            self.solver.set_particle(i, p, p);
+        if self.reweigh {
+            // Positions and every weight at once: one update of the
+            // layout's shares, however many weights changed.
+            self.layout.write_state(x, x, &self.weights);
+            self.reweigh = false;
+        } else {
+            for (i, &p) in x.iter().enumerate() {
+                self.layout.set_particle(i, p, p);
+            }
         }
-        self.solver.relax(&Substep {
+        self.layout.relax(&Substep {
             dt: 0.0,
             keep: 0.0,
             accel: Vec3::ZERO,
@@ -140,7 +142,7 @@ impl EdgeLanes {
             shear_beta: 0.0,
             tether_slack: None,
         });
-        self.solver.read(x, &mut self.previous);
+        self.layout.read(x, &mut self.previous);
     }
 }
 
