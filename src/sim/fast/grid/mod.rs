@@ -319,6 +319,10 @@ pub(crate) struct GridLayout {
     uniform: bool,
     /// The shares `shared` was computed with: structural, bend and shear.
     shares: [Shares; KINDS],
+    /// A weight of 0 or 1 was written while `uniform` was false: the next
+    /// relaxation recomputes `uniform` and the shares, once for every write
+    /// before it.
+    reshare: bool,
 }
 
 impl GridLayout {
@@ -384,6 +388,7 @@ impl GridLayout {
             parallel: positions.len() >= PARALLEL_PARTICLES,
             uniform: true,
             shares: [Shares::new(0.0, 1.0); KINDS],
+            reshare: false,
         };
         layout.write_state(positions, previous, inverse_mass);
 
@@ -485,6 +490,7 @@ impl GridLayout {
 
     /// Recomputes `uniform` and every slot's shares.
     fn refresh_shares(&mut self) {
+        self.reshare = false;
         self.uniform = self.tiles.iter().all(|t| t.weight.iter().all(|w| w.0.iter().all(|&w| w == 0.0 || w == 1.0)));
         let shares = self.shares;
         for tile in &mut self.tiles {
@@ -502,9 +508,10 @@ impl GridLayout {
         }
     }
 
-    /// Sets the shares for β and ω, recomputing the slots' if they changed.
+    /// Sets the shares for β and ω, recomputing the slots' if they changed
+    /// or a weight written since asks for it ([`Self::write_weight`]).
     fn use_shares(&mut self, shares: [Shares; KINDS]) {
-        if shares != self.shares {
+        if shares != self.shares || self.reshare {
             self.shares = shares;
             self.refresh_shares();
         }
@@ -512,6 +519,11 @@ impl GridLayout {
 
     /// Writes one particle's weight; keeps its shares in step (a write of
     /// one lane), or leaves the share form if the weight is not 0 or 1.
+    /// A 0 or 1 written outside the share form may let the layout return to
+    /// it: the next relaxation checks, once, however many weights were
+    /// written (checking at every write made a change of every weight
+    /// quadratic: 5.4 s for the 256 × 256 cloth going back from a density to
+    /// a mass per particle).
     fn write_weight(&mut self, index: usize, weight: f32) {
         let loc = self.locations[index];
         let (t, s, l) = (loc.tile as usize, loc.slot as usize, loc.lane as usize);
@@ -525,7 +537,7 @@ impl GridLayout {
                 shared[s].partner.0[l] = w.partner;
             }
         } else {
-            self.refresh_shares();
+            self.reshare = true;
         }
     }
 
