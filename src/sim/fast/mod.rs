@@ -83,13 +83,6 @@ pub fn new(
     }
 }
 
-/// The lane layout alone, for a grid mesh whose bars it takes (complete
-/// classes of one kind and rest length each), or `None`: the inextensible
-/// phase runs its passes over a grid's edges on it.
-pub(crate) fn grid_lanes(mesh: &ClothMesh, positions: &[Vec3], inverse_mass: &[f32]) -> Option<GridLayout> {
-    GridLayout::new(mesh, positions, positions, inverse_mass, None)
-}
-
 /// The instruction set the kernels run with ([`simd::level`]).
 pub(crate) fn simd_name() -> &'static str {
     simd::level().label()

@@ -80,10 +80,8 @@ pub(super) struct Smoothing {
 struct EdgeLanes {
     /// The lane layout over the edges alone.
     layout: GridLayout,
-    /// The weights it is to hold (relative inverse masses, scene order).
+    /// The weights it holds (relative inverse masses, scene order).
     weights: Vec<f32>,
-    /// Whether `weights` changed since they were written to `layout`.
-    reweigh: bool,
     /// Where [`Solver::read`] writes x − d (unused).
     previous: Vec<Vec3>,
 }
@@ -104,29 +102,25 @@ impl EdgeLanes {
         })
         .ok()?;
         let weights: Vec<f32> = mesh.fixed().iter().map(|&f| if f { 0.0 } else { 1.0 }).collect();
-        let layout = crate::sim::fast::grid_lanes(&edges, mesh.positions(), &weights)?;
-        Some(Self { layout, weights, reweigh: false, previous: vec![Vec3::ZERO; mesh.particle_count()] })
+        let layout = GridLayout::new(&edges, mesh.positions(), mesh.positions(), &weights, None)?;
+        Some(Self { layout, weights, previous: vec![Vec3::ZERO; mesh.particle_count()] })
     }
 
-    /// Keeps `weights` for the next passes.
+    /// Writes the weights that changed (each a write of one lane; the
+    /// layout checks its equal-mass form once, at the next passes).
     fn set_weights(&mut self, weights: &[f32]) {
-        if self.weights != weights {
-            self.weights.copy_from_slice(weights);
-            self.reweigh = true;
+        for (i, (held, &w)) in self.weights.iter_mut().zip(weights).enumerate() {
+            if held.to_bits() != w.to_bits() {
+                *held = w;
+                self.layout.set_inverse_mass(i, w);
+            }
         }
     }
 
     /// `count` rigid passes over the edges, moving `x` (scene order).
     fn passes(&mut self, count: u32, x: &mut [Vec3]) {
-        if self.reweigh {
-            // Positions and every weight at once: one update of the
-            // layout's shares, however many weights changed.
-            self.layout.write_state(x, x, &self.weights);
-            self.reweigh = false;
-        } else {
-            for (i, &p) in x.iter().enumerate() {
-                self.layout.set_particle(i, p, p);
-            }
+        for (i, &p) in x.iter().enumerate() {
+            self.layout.set_particle(i, p, p);
         }
         self.layout.relax(&Substep {
             dt: 0.0,
