@@ -97,17 +97,27 @@ fn the_upper_sheet_stays_above_the_lower_one() {
     // The `two-sheets` scene: two sheets of one OBJ (two pieces) dropped on
     // a ball, r = 2 cm, the lower sheet's front facing up (and out from the
     // ball once draped). After 3 s every particle of the upper sheet that
-    // lies over the lower one is on its front side by at least r/4 (a
-    // particle kept r from the lower sheet's particles, 3 cm apart, is at
-    // least sqrt(2² − 1.5²) = 1.3 cm above it even over a triangle's middle).
-    // Without self-collision both sheets rest on the ball at the same
-    // distance and the check finds particles of the upper sheet below.
+    // lies over the lower one is on its front side. The phase leaves a
+    // particle r from the lower sheet's particles, 3 cm apart, so at least
+    // sqrt(2² − 1.5²) = 1.3 cm above it even over a triangle's middle; the
+    // bars and the ball's contact, which run after it, undo some of that,
+    // more or less by the order they relax in. Measured (host D): 1.3 mm
+    // with the reference solver's creation order, 1.6 mm with the lanes
+    // (the sheets are a grid of 27 columns in the OBJ's order), 7.6 mm with
+    // the coloured order. Without self-collision both sheets rest on the
+    // ball at the same distance and the upper one ends up 2.7–2.9 cm
+    // below the lower one's surface in all three: the check fails there.
     let r = 0.02;
-    let sim = settled("two-sheets", true, SolverKind::Fast, 180);
-    let clearance = lowest_clearance(&sim);
-    assert!(clearance > 0.25 * r, "with self-collision an upper particle is {clearance} m from the lower sheet");
+    for kind in SolverKind::ALL {
+        let sim = settled("two-sheets", true, kind, 180);
+        let clearance = lowest_clearance(&sim);
+        assert!(
+            clearance > 0.0,
+            "{kind:?}: with self-collision an upper particle is {clearance} m from the lower sheet"
+        );
+    }
     let without = lowest_clearance(&settled("two-sheets", false, SolverKind::Fast, 180));
-    assert!(without < 0.25 * r, "without self-collision the sheets should mix, yet the clearance is {without} m");
+    assert!(without < -0.5 * r, "without self-collision the sheets should mix, yet the clearance is {without} m");
 }
 
 #[test]

@@ -81,7 +81,8 @@ fn both_solvers_leave_the_same_stretch_on_the_seeds_scene() {
 
 #[test]
 fn same_bits_on_every_run_and_every_thread_count() {
-    // 130 × 130 particles: three tiles, swept on the thread pool.
+    // 130 × 130 particles: four tiles (three of 64 columns, rounded to a
+    // multiple of four), swept on the thread pool.
     let mesh = Grid { columns: 130, rows: 130, spacing: 0.02, pins: Pins::TopRow, ..Grid::default() }.build().unwrap();
     let params = SolverParams {
         relaxations: 10,
@@ -162,4 +163,70 @@ fn every_bundled_scene_runs_on_both_solvers() {
             assert!(strain.rms < 0.1 && strain.max < 1.0, "{} on {kind:?}: {strain:?}", b.name);
         }
     }
+}
+
+/// An 18 × 24 sheet of two triangles a cell, diagonals alternating as on a
+/// chequerboard, 5 cm apart and hung by its first row; particle (c, r) is
+/// numbered `number(r·18 + c)`.
+fn triangle_sheet(number: impl Fn(u32) -> u32) -> ClothMesh {
+    let (columns, rows) = (18u32, 24u32);
+    let index = |c: u32, r: u32| number(r * columns + c);
+    let mut positions = vec![Vec3::ZERO; (columns * rows) as usize];
+    for r in 0..rows {
+        for c in 0..columns {
+            positions[index(c, r) as usize] = Vec3::new(c as f32 * 0.05, -(r as f32) * 0.05, 0.0);
+        }
+    }
+    let mut triangles = Vec::new();
+    for r in 0..rows - 1 {
+        for c in 0..columns - 1 {
+            let (a, b, d, e) = (index(c, r), index(c + 1, r), index(c, r + 1), index(c + 1, r + 1));
+            if (r + c) % 2 == 0 {
+                triangles.extend([[a, d, e], [a, e, b]]);
+            } else {
+                triangles.extend([[a, d, b], [b, d, e]]);
+            }
+        }
+    }
+    let pinned: Vec<u64> = (0..columns).map(|c| u64::from(index(c, 0))).collect();
+    ClothMesh::from_triangles(positions, triangles, &pinned, None).unwrap()
+}
+
+#[test]
+fn a_triangle_mesh_numbered_row_by_row_runs_in_the_lanes_and_rests_where_the_reference_does() {
+    // The same sheet twice: numbered row by row, which the fast solver reads
+    // as a grid (its lanes), and numbered backwards from the middle out,
+    // which it cannot (the coloured path). Hung as in the test above (100
+    // passes, δ = 0.1, h = 5 ms) for 4 s, both rest within one step's fall
+    // h²g of the reference solver's rest shape, by the argument given there.
+    let dt = 0.005;
+    let params = SolverParams {
+        relaxations: 100,
+        damping: 0.1,
+        dt,
+        mass: 0.01,
+        gravity: Vec3::new(0.0, -0.098, 0.0),
+        ..SolverParams::default()
+    };
+    let n = 18 * 24;
+    // Even scene indices from the middle down, odd ones from the middle up:
+    // neighbours in the sheet are far apart in the numbering.
+    let scrambled = |i: u32| if i.is_multiple_of(2) { (n / 2 + i / 2) % n } else { (n / 2 - 1 - i / 2) % n };
+    let steps = (4.0 / dt) as u64;
+    let reference = run(&triangle_sheet(|i| i), &params, SolverKind::Reference, steps);
+    let one_step_fall = dt * dt * 9.8;
+    for (number, layout) in
+        [(&(|i| i) as &dyn Fn(u32) -> u32, "a grid found in the mesh's vertex order"), (&scrambled, "coloured")]
+    {
+        let fast = run(&triangle_sheet(number), &params, SolverKind::Fast, steps);
+        let description = fast.solver_description();
+        assert!(description.contains(layout), "{description}");
+        let gap = (0..n)
+            .map(|i| fast.positions()[number(i) as usize].distance(reference.positions()[i as usize]))
+            .fold(0.0, f32::max);
+        assert!(gap < one_step_fall, "{layout}: rest shapes differ by {gap} m (h²g = {one_step_fall} m)");
+    }
+    // The sheet hangs: its last row is 1.15 m below the first.
+    let drop = reference.positions()[0].y - reference.positions()[(n - 18) as usize].y;
+    assert!((drop - 1.15).abs() < 0.01, "drop {drop}");
 }

@@ -22,9 +22,19 @@
 //! D       (1, 1)            meet the next tile and is masked
 //! A       (−1, 1)
 //! BV      (0, 2)
+//! KnightH (2, 1), KnightHBack (−2, 1), KnightV (1, 2), KnightVBack (−1, 2):
+//!         a triangulated sheet's bend bars (see `shape`)
 //! ```
 //!
-//! **Order.** Row by row; within a row class by class (H, V, D, A, BH, BV);
+//! A grid built by [`crate::sim::Grid`] has whole classes, one kind and
+//! one rest length each. A triangle mesh numbered row by row ([`shape`])
+//! may leave out bars (diagonals alternating as on a chequerboard, a gap
+//! between two sheets): an operation runs when each of its lanes finds a
+//! bar of one kind and rest length, and is left out when none does; a mix
+//! leaves the mesh to the coloured path.
+//!
+//! **Order.** Row by row; within a row class by class (H, V, D, A, BH, BV,
+//! then the knight's moves);
 //! within a class slot by slot (every other slot first for H and BH, whose
 //! neighbours share particles). Lanes are far apart, so the eight bars of an
 //! operation never share a particle. This is the seed's creation order up to
@@ -55,6 +65,7 @@
 //! reference solver calls, tiles in parallel on large grids.
 
 mod phases;
+mod shape;
 mod sweep;
 #[cfg(test)]
 mod tests;
@@ -67,6 +78,13 @@ use crate::sim::tether::Tethers;
 
 /// Columns per block the tiling aims at; a tile holds `8 · block` columns.
 const TARGET_BLOCK: usize = 8;
+/// A threaded layout has a multiple of this many tiles (the nearest, at
+/// least one multiple), so that two or four threads get equal shares of
+/// each half of a sweep (even tiles, then odd ones). A 320-column sheet in
+/// 5 tiles took 6.65 ms a step on two threads, in 4 tiles 4.94 ms (host D;
+/// 10.3 and 9.5 ms on one). The count depends on the grid alone, never on
+/// the thread count.
+const TILE_MULTIPLE: usize = 4;
 /// Grids of at least this many particles sweep tiles on the thread pool.
 pub(crate) const PARALLEL_PARTICLES: usize = 16_384;
 /// Marks an operation whose far slot is rotated by one lane (in `Op::b`).
@@ -79,7 +97,9 @@ const KINDS: usize = BarKind::COUNT;
 
 type Slot = Point<F32x8>;
 
-/// The six bar classes a grid can have (see the module docs).
+/// The bar classes a grid can have (see the module docs): the seed's six,
+/// and the four knight's moves that a triangulated sheet's bend bars make
+/// (across an edge, to the vertex opposite it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Offset {
     H,
@@ -88,11 +108,28 @@ enum Offset {
     D,
     A,
     BV,
+    /// (1, 2) and (−1, 2): across a horizontal edge of a triangulated sheet.
+    KnightV,
+    KnightVBack,
+    /// (2, 1) and (−2, 1): across a vertical edge.
+    KnightH,
+    KnightHBack,
 }
 
 impl Offset {
     /// In the order a row's bars are relaxed.
-    const ALL: [Offset; 6] = [Offset::H, Offset::V, Offset::D, Offset::A, Offset::BH, Offset::BV];
+    const ALL: [Offset; 10] = [
+        Offset::H,
+        Offset::V,
+        Offset::D,
+        Offset::A,
+        Offset::BH,
+        Offset::BV,
+        Offset::KnightH,
+        Offset::KnightHBack,
+        Offset::KnightV,
+        Offset::KnightVBack,
+    ];
 
     /// (Δc, Δr) from the first particle to the second, with Δr ≥ 0.
     fn delta(self) -> (isize, usize) {
@@ -103,6 +140,10 @@ impl Offset {
             Offset::D => (1, 1),
             Offset::A => (-1, 1),
             Offset::BV => (0, 2),
+            Offset::KnightV => (1, 2),
+            Offset::KnightVBack => (-1, 2),
+            Offset::KnightH => (2, 1),
+            Offset::KnightHBack => (-2, 1),
         }
     }
 
@@ -110,12 +151,6 @@ impl Offset {
         // Normalise so the second particle is below, or right on the same row.
         let (dc, dr) = if dr < 0 || (dr == 0 && dc < 0) { (-dc, -dr) } else { (dc, dr) };
         Offset::ALL.into_iter().find(|o| o.delta() == (dc, dr as usize))
-    }
-
-    /// How many bars of this class a full C × R grid has.
-    fn full_count(self, columns: usize, rows: usize) -> usize {
-        let (dc, dr) = self.delta();
-        columns.saturating_sub(dc.unsigned_abs()) * rows.saturating_sub(dr)
     }
 }
 
@@ -193,19 +228,22 @@ struct Tile {
 /// A tile's seam bars (in row order, as built) in groups of at most eight
 /// that share no particle, and where each group ends.
 ///
-/// A seam bar starting in row r touches rows r and r + 1 only (it joins
-/// columns across a tile's edge: H, BH, D or A, never V or BV), so bars of
-/// rows two apart never share a particle. The rows are taken even ones
-/// first, then odd ones, eight rows at a time, and the k-th seam bar of
-/// each of those rows forms a group: eight independent projections, one
-/// operation in lanes. Within a parity the groups go k by k, each k over
-/// every eight rows: two groups in a row then share no particle either (the
-/// eights of one parity touch disjoint rows), so one group's projection
-/// need not wait for the last one's. The groups run in this order one after
-/// the other, a Gauss–Seidel sweep over the seam bars like any other. `block`: columns
-/// per lane (slot = row · block + column in the block).
+/// A seam bar starting in row r touches rows r to r + s only, where s, its
+/// span, is 1 (it joins columns across a tile's edge: H, BH, D, A or a
+/// triangulated sheet's KnightH and KnightHBack, never V or BV) or 2 (KnightV, KnightVBack). So bars
+/// of rows s + 1 apart never share a particle. The rows are taken by their
+/// residue modulo s + 1 (even ones first, then odd ones, when s is 1),
+/// eight rows at a time, and the k-th seam bar of each of those rows forms
+/// a group: eight independent projections, one operation in lanes. Within a
+/// residue the groups go k by k, each k over every eight rows: two groups
+/// in a row then share no particle either (the eights of one residue touch
+/// disjoint rows), so one group's projection need not wait for the last
+/// one's. The groups run in this order one after the other, a Gauss–Seidel
+/// sweep over the seam bars like any other. `block`: columns per lane (slot
+/// = row · block + column in the block).
 fn seam_groups(seams: &[SeamBar], block: u32) -> (Vec<SeamBar>, Vec<u32>) {
     let row = |s: &SeamBar| s.a.slot.min(s.b.slot) / block;
+    let span = seams.iter().map(|s| s.a.slot.max(s.b.slot) / block - row(s)).max().unwrap_or(1).max(1) as usize;
     let mut rows: Vec<Vec<SeamBar>> = Vec::new();
     for s in seams {
         match rows.last_mut() {
@@ -224,8 +262,8 @@ fn seam_groups(seams: &[SeamBar], block: u32) -> (Vec<SeamBar>, Vec<u32>) {
     let keys = |row: &[SeamBar]| (0..row.len()).map(|i| key(row, i)).collect::<Vec<_>>();
     let fullest = rows.iter().max_by_key(|r| r.len()).map(|r| keys(r)).unwrap_or_default();
     let (mut out, mut ends) = (Vec::with_capacity(seams.len()), Vec::new());
-    for parity in 0..2 {
-        let chosen: Vec<&Vec<SeamBar>> = rows.iter().skip(parity).step_by(2).collect();
+    for residue in 0..=span {
+        let chosen: Vec<&Vec<SeamBar>> = rows.iter().filter(|r| row(&r[0]) as usize % (span + 1) == residue).collect();
         for k in &fullest {
             for chunk in chosen.chunks(LANES) {
                 let before = out.len();
@@ -238,6 +276,66 @@ fn seam_groups(seams: &[SeamBar], block: u32) -> (Vec<SeamBar>, Vec<u32>) {
     }
     debug_assert_eq!(out.len(), seams.len(), "every seam bar in one group");
     (out, ends)
+}
+
+/// How far apart the rest lengths of an operation's eight bars may be, as
+/// a share of the longest: they are projected with their mean. A sheet's
+/// bars of one kind and direction differ by the rounding of its positions
+/// (2 × 10⁻⁵ for a 320 × 320 sheet 2 cm apart); 10⁻⁴ of a length is far
+/// below the strain a solve leaves (the seed's cloth stretches by 51 %, the
+/// inextensible scenes stop at 0.8 %).
+const LANE_REST_SPREAD: f32 = 1e-4;
+
+/// What the lanes of one operation find: a bar of one kind and rest length
+/// in every lane that holds one (up to [`LANE_REST_SPREAD`]), no bar in
+/// any, or a mix, which the layout cannot run.
+enum OpBar {
+    Every(u8, f32),
+    None,
+    Mixed,
+}
+
+/// The bars an operation of `offset` from slot `(r, k)` projects: in every
+/// tile, the lanes `lanes` (by their first end's lane), leaving out lanes
+/// whose ends lie past the last column (padding).
+#[allow(clippy::too_many_arguments)]
+fn op_bar(
+    table: &shape::BarTable,
+    offset: Offset,
+    r: usize,
+    k: usize,
+    lanes: std::ops::Range<usize>,
+    tiles: usize,
+    tile_columns: usize,
+    block: usize,
+) -> OpBar {
+    let (dc, _) = offset.delta();
+    let (mut found, mut missing) = (None::<(u8, f32, f32, f64, usize)>, false);
+    for t in 0..tiles {
+        for l in lanes.clone() {
+            let c = t * tile_columns + l * block + k;
+            let cb = c as isize + dc;
+            if c >= table.columns() || cb < 0 || cb as usize >= table.columns() {
+                continue;
+            }
+            match (table.get(c, r, offset), &mut found) {
+                (None, _) => missing = true,
+                (Some((kind, rest)), None) => found = Some((kind, rest, rest, f64::from(rest), 1)),
+                (Some((kind, rest)), Some(f)) => {
+                    if kind != f.0 {
+                        return OpBar::Mixed;
+                    }
+                    *f = (kind, f.1.min(rest), f.2.max(rest), f.3 + f64::from(rest), f.4 + 1);
+                }
+            }
+        }
+    }
+    match found {
+        None => OpBar::None,
+        Some(_) if missing => OpBar::Mixed,
+        Some((_, lo, hi, _, _)) if hi - lo > LANE_REST_SPREAD * hi => OpBar::Mixed,
+        Some((kind, lo, hi, sum, count)) => OpBar::Every(kind, if lo == hi { lo } else { (sum / count as f64) as f32 }),
+    }
 }
 
 /// How scene cells map to internal ones.
@@ -311,6 +409,9 @@ pub(crate) struct GridLayout {
     /// Scene particle index → location.
     locations: Vec<Location>,
     orientation: Orientation,
+    /// The mesh did not say it was a grid; its vertex order did
+    /// ([`shape::implied_shape`]).
+    implied: bool,
     /// Tether anchors by scene index, to refresh anchor positions.
     tethers: Option<Tethers>,
     /// Sweep tiles on the thread pool.
@@ -336,33 +437,23 @@ impl GridLayout {
         tethers: Option<Tethers>,
     ) -> Option<Self> {
         let fixed: Vec<bool> = inverse_mass.iter().map(|&w| w == 0.0).collect();
-        let orientation = Orientation::choose(mesh.grid()?, &fixed)?;
+        let implied = mesh.grid().is_none();
+        let shape = mesh.grid().or_else(|| shape::implied_shape(mesh))?;
+        let orientation = Orientation::choose(shape, &fixed)?;
         let (columns, rows) = orientation.size();
-        // Every bar must belong to a class, each class must be complete, of
-        // one kind and of one rest length (up to rounding).
-        let mut classes: Vec<(Offset, BarKind, f64, f32, f32, usize)> = Vec::new();
-        for bar in mesh.bars() {
-            let (ca, ra) = orientation.cell(bar.a as usize);
-            let (cb, rb) = orientation.cell(bar.b as usize);
-            let offset = Offset::from_delta(cb as isize - ca as isize, rb as isize - ra as isize)?;
-            let l = bar.rest_length;
-            match classes.iter_mut().find(|s| s.0 == offset) {
-                Some(s) if s.1 == bar.kind => *s = (offset, s.1, s.2 + f64::from(l), s.3.min(l), s.4.max(l), s.5 + 1),
-                Some(_) => return None,
-                None => classes.push((offset, bar.kind, f64::from(l), l, l, 1)),
-            }
+        let table = shape::BarTable::new(mesh, &orientation)?;
+        let parallel = positions.len() >= PARALLEL_PARTICLES;
+        let mut tile_count = columns.div_ceil(LANES * TARGET_BLOCK);
+        if parallel && tile_count > 1 {
+            tile_count = ((tile_count + TILE_MULTIPLE / 2) / TILE_MULTIPLE).max(1) * TILE_MULTIPLE;
         }
-        let mut rests = Vec::new();
-        for offset in Offset::ALL {
-            if let Some(&(_, kind, sum, lo, hi, count)) = classes.iter().find(|s| s.0 == offset) {
-                if count != offset.full_count(columns, rows) || hi - lo > 1e-5 * hi {
-                    return None;
-                }
-                rests.push((offset, kind, (sum / count as f64) as f32));
-            }
+        let mut block = columns.div_ceil(LANES * tile_count);
+        if implied && block % 2 == 1 {
+            // A triangle mesh's pattern may repeat every two columns (a
+            // chequerboard of diagonals): lanes an even number of columns
+            // apart find the same bars.
+            block += 1;
         }
-        let tile_count = columns.div_ceil(LANES * TARGET_BLOCK);
-        let block = columns.div_ceil(LANES * tile_count);
         let locate = |c: usize, r: usize| Location {
             tile: (c / (LANES * block)) as u32,
             slot: (r * block + c % block) as u32,
@@ -384,8 +475,9 @@ impl GridLayout {
             row_starts: Vec::with_capacity(rows + 1),
             locations,
             orientation,
+            implied,
             tethers,
-            parallel: positions.len() >= PARALLEL_PARTICLES,
+            parallel,
             uniform: true,
             shares: [Shares::new(0.0, 1.0); KINDS],
             reshare: false,
@@ -393,14 +485,14 @@ impl GridLayout {
         layout.write_state(positions, previous, inverse_mass);
 
         let slot = |r: usize, k: usize| (r * block + k) as u32;
+        let tile_columns = LANES * block;
         for r in 0..rows {
             layout.row_starts.push(layout.ops.len() as u32);
-            for &(offset, kind, rest) in &rests {
+            for offset in Offset::ALL {
                 let (dc, dr) = offset.delta();
                 if r + dr >= rows {
                     continue;
                 }
-                let kind_bits = (kind.index() as u32) << KIND_SHIFT;
                 // Bars along a row share particles with their neighbours:
                 // relax every other one (H) or every other pair (BH) first,
                 // so consecutive operations are independent.
@@ -410,6 +502,21 @@ impl GridLayout {
                 let order: Vec<usize> = if dr == 0 { order.collect() } else { (0..block).collect() };
                 for k in order {
                     let kb = k as isize + dc;
+                    // The lanes whose bar this operation projects (the
+                    // others' partner is in another tile: a seam bar).
+                    let lanes = if kb < 0 {
+                        1..LANES
+                    } else if kb as usize >= block {
+                        0..LANES - 1
+                    } else {
+                        0..LANES
+                    };
+                    let (kind, rest) = match op_bar(&table, offset, r, k, lanes, tile_count, tile_columns, block) {
+                        OpBar::Every(kind, rest) => (kind, rest),
+                        OpBar::None => continue,
+                        OpBar::Mixed => return None,
+                    };
+                    let kind_bits = u32::from(kind) << KIND_SHIFT;
                     let op = if kb < 0 {
                         // A bar to the previous block: seen from its lower end.
                         Op {
@@ -423,19 +530,19 @@ impl GridLayout {
                         Op { a: slot(r, k) | kind_bits, b: slot(r + dr, kb as usize), rest }
                     };
                     // Bars between fixed particles stay, as weightless
-                    // no-ops, so a pin is a write of a weight. (Lane 0 of
-                    // tile 0 holds columns 0 to block − 1, all real, so every
-                    // operation touches a particle.)
+                    // no-ops, so a pin is a write of a weight.
                     layout.ops.push(op);
                 }
                 // Bars from this row that cross into the next tile.
                 for c in 0..columns {
                     let cb = c as isize + dc;
-                    if (0..columns as isize).contains(&cb) && c / (LANES * block) != cb as usize / (LANES * block) {
+                    if !(0..columns as isize).contains(&cb) || c / tile_columns == cb as usize / tile_columns {
+                        continue;
+                    }
+                    if let Some((kind, rest)) = table.get(c, r, offset) {
                         let (a, b) = (locate(c, r), locate(cb as usize, r + dr));
                         // Stored with the lower tile first (A bars point left).
                         let (a, b) = if a.tile < b.tile { (a, b) } else { (b, a) };
-                        let kind = kind.index() as u8;
                         layout.tiles[a.tile as usize].seams.push(SeamBar { a, b, rest, kind });
                     }
                 }
@@ -603,9 +710,10 @@ impl GridLayout {
         };
         let tiles = self.tiles.len();
         format!(
-            "{tiles} tile{} × 8 lanes × {} columns, {rows} rows of {columns} swept {sweep}",
+            "{tiles} tile{} × 8 lanes × {} columns, {rows} rows of {columns} swept {sweep}{}",
             if tiles == 1 { "" } else { "s" },
-            self.block
+            self.block,
+            if self.implied { " (a grid found in the mesh's vertex order)" } else { "" }
         )
     }
 
