@@ -361,15 +361,6 @@ impl Orientation {
         if self.flipped { (c, rows - 1 - r) } else { (c, r) }
     }
 
-    /// The scene particle at internal (column, row): the inverse of
-    /// [`Self::cell`].
-    fn index(&self, c: usize, r: usize) -> usize {
-        let rows = self.size().1;
-        let r = if self.flipped { rows - 1 - r } else { r };
-        let (c, r) = if self.transposed { (r, c) } else { (c, r) };
-        r * self.shape.columns as usize + c
-    }
-
     /// The orientation whose sweep starts nearest the fixed particles (their
     /// mean row, as a share of the rows, is smallest), among those with at
     /// least 17 columns so a block has 3 or more. Ties keep the scene's own.
@@ -409,9 +400,9 @@ pub(crate) struct GridLayout {
     /// Scene particle index → location.
     locations: Vec<Location>,
     orientation: Orientation,
-    /// The mesh did not say it was a grid; its vertex order did
-    /// ([`shape::implied_shape`]).
-    implied: bool,
+    /// How the grid was found when the mesh did not say it was one
+    /// ([`shape::implied_grid`]): in its numbering, or its triangles.
+    found: Option<&'static str>,
     /// Tether anchors by scene index, to refresh anchor positions.
     tethers: Option<Tethers>,
     /// Sweep tiles on the thread pool.
@@ -438,10 +429,23 @@ impl GridLayout {
     ) -> Option<Self> {
         let fixed: Vec<bool> = inverse_mass.iter().map(|&w| w == 0.0).collect();
         let implied = mesh.grid().is_none();
-        let shape = mesh.grid().or_else(|| shape::implied_shape(mesh))?;
-        let orientation = Orientation::choose(shape, &fixed)?;
+        let (shape, number) = match mesh.grid() {
+            Some(shape) => (shape, None),
+            None => {
+                let found = shape::implied_grid(mesh)?;
+                (found.shape, found.number)
+            }
+        };
+        // Scene particle → grid index r·C + c.
+        let grid_index = |i: usize| number.as_ref().map_or(i, |n| n[i] as usize);
+        let mut fixed_by_index = vec![false; fixed.len()];
+        for (i, &f) in fixed.iter().enumerate() {
+            fixed_by_index[grid_index(i)] = f;
+        }
+        let orientation = Orientation::choose(shape, &fixed_by_index)?;
+        let cell = |i: usize| orientation.cell(grid_index(i));
         let (columns, rows) = orientation.size();
-        let table = shape::BarTable::new(mesh, &orientation)?;
+        let table = shape::BarTable::new(mesh, cell, (columns, rows))?;
         let parallel = positions.len() >= PARALLEL_PARTICLES;
         let mut tile_count = columns.div_ceil(LANES * TARGET_BLOCK);
         if parallel && tile_count > 1 {
@@ -467,7 +471,7 @@ impl GridLayout {
             weight: vec![F32x8::splat(0.0); slots],
             ..Tile::default()
         };
-        let locations = (0..positions.len()).map(|i| orientation.cell(i)).map(|(c, r)| locate(c, r)).collect();
+        let locations = (0..positions.len()).map(cell).map(|(c, r)| locate(c, r)).collect();
         let mut layout = GridLayout {
             block,
             tiles: vec![empty; tile_count],
@@ -475,7 +479,11 @@ impl GridLayout {
             row_starts: Vec::with_capacity(rows + 1),
             locations,
             orientation,
-            implied,
+            found: match (implied, &number) {
+                (false, _) => None,
+                (true, None) => Some(" (a grid found in the mesh's vertex order)"),
+                (true, Some(_)) => Some(" (a grid found in the mesh's triangles, particles renumbered)"),
+            },
             tethers,
             parallel,
             uniform: true,
@@ -713,7 +721,7 @@ impl GridLayout {
             "{tiles} tile{} × 8 lanes × {} columns, {rows} rows of {columns} swept {sweep}{}",
             if tiles == 1 { "" } else { "s" },
             self.block,
-            if self.implied { " (a grid found in the mesh's vertex order)" } else { "" }
+            self.found.unwrap_or_default()
         )
     }
 

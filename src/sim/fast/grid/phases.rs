@@ -166,24 +166,20 @@ impl Solver for GridLayout {
         }
         phase.apply(&mut x, &x0, &w, &SelfContactStep { parallel, ..*step });
         // Each tile takes its own particles' positions back.
-        let (orientation, block, x_new) = (self.orientation, self.block, &x);
-        let columns = orientation.size().0;
-        let write = |(t, tile): (usize, &mut Tile)| {
-            for (s, position) in tile.position.iter_mut().enumerate() {
-                for (l, c) in (0..LANES).map(|l| (l, (t * LANES + l) * block + s % block)) {
-                    if c < columns {
-                        let i = orientation.index(c, s / block);
-                        for k in 0..3 {
-                            position[k].0[l] = x_new[i][k];
-                        }
+        let x_new = &x;
+        let write = |tile: &mut Tile| {
+            for (position, scene) in tile.position.iter_mut().zip(&tile.scene) {
+                for (l, &i) in scene.iter().enumerate().filter(|&(_, &i)| i != u32::MAX) {
+                    for k in 0..3 {
+                        position[k].0[l] = x_new[i as usize][k];
                     }
                 }
             }
         };
         if parallel {
-            self.tiles.par_iter_mut().enumerate().for_each(write);
+            self.tiles.par_iter_mut().for_each(write);
         } else {
-            self.tiles.iter_mut().enumerate().for_each(write);
+            self.tiles.iter_mut().for_each(write);
         }
         (phase.x, phase.x0, phase.w) = (x, x0, w);
     }

@@ -1,18 +1,47 @@
-//! The grid a mesh's vertex order implies.
+//! The grid a mesh implies.
 //!
 //! A mesh built by [`crate::sim::Grid`] knows its columns and rows. A
-//! triangle mesh that is a sheet of C × R vertices numbered row by row (a
-//! modelling tool's subdivided plane, exported to OBJ; a generated sheet)
-//! has the same structure without saying so: every bar joins particle
-//! `i = r·C + c` to one a few columns and rows away. This finds such a C
-//! from the bars alone, so that the lane layout can run the sheet as it
-//! runs a grid. [`BarTable`] then holds every bar by its cell and offset,
-//! for [`super::GridLayout::new`] to check that each of its operations'
-//! eight lanes finds a bar of one kind and rest length in every lane, or
-//! none in any.
+//! triangle mesh that is a sheet of C × R vertices (a modelling tool's
+//! subdivided plane exported to OBJ, a generated sheet) has the same
+//! structure without saying so. Numbered row by row, every bar joins
+//! particle `i = r·C + c` to one a few columns and rows away, and C is
+//! found from the bars alone. Numbered any other way (a mesh optimised for
+//! a vertex cache, a shuffled sheet), its triangles still give the grid:
+//! each cell's longest edge is its diagonal, the others the grid's lines,
+//! and rows follow from one corner. Either way the lane layout can run the
+//! sheet as it runs a grid. [`BarTable`] then holds every bar by its cell
+//! and offset, for [`super::GridLayout::new`] to check that each of its
+//! operations' eight lanes finds a bar of one kind and rest length in
+//! every lane, or none in any.
 
-use super::{Offset, Orientation};
+use super::Offset;
 use crate::sim::mesh::{ClothMesh, GridShape};
+
+/// A grid found in a mesh that does not say it is one.
+pub(super) struct ImpliedGrid {
+    pub(super) shape: GridShape,
+    /// The grid index `r·C + c` of each scene particle, when the mesh is not
+    /// numbered row by row.
+    pub(super) number: Option<Vec<u32>>,
+}
+
+/// The grid `mesh` is, numbered row by row ([`row_by_row`]) or in any
+/// order ([`from_triangles`]), or `None`.
+pub(super) fn implied_grid(mesh: &ClothMesh) -> Option<ImpliedGrid> {
+    if let Some(shape) = row_by_row(mesh) {
+        return Some(ImpliedGrid { shape, number: None });
+    }
+    let (shape, number) = from_triangles(mesh)?;
+    let fits_all = mesh.bars().iter().all(|b| {
+        let cell = |i: u32| {
+            let k = number[i as usize] as usize;
+            ((k % shape.columns as usize) as isize, (k / shape.columns as usize) as isize)
+        };
+        let ((ca, ra), (cb, rb)) = (cell(b.a), cell(b.b));
+        Offset::from_delta(cb - ca, rb - ra).is_some()
+    });
+    fits_all.then_some(ImpliedGrid { shape, number: Some(number) })
+}
 
 /// C and R such that every bar of `mesh` is one of the lane layout's
 /// offsets between `(i mod C, i div C)` and `(j mod C, j div C)`, or `None`.
@@ -20,7 +49,7 @@ use crate::sim::mesh::{ClothMesh, GridShape};
 /// The candidates for C are the neighbours of particle 0 (a corner: its
 /// vertical bar reaches particle C), and the numbers next to them; each is
 /// checked against every bar, so the cost is a few passes over the bars.
-pub(super) fn implied_shape(mesh: &ClothMesh) -> Option<GridShape> {
+fn row_by_row(mesh: &ClothMesh) -> Option<GridShape> {
     let n = mesh.positions().len();
     let bars = mesh.bars();
     let mut candidates: Vec<usize> = bars
@@ -38,6 +67,115 @@ pub(super) fn implied_shape(mesh: &ClothMesh) -> Option<GridShape> {
         .into_iter()
         .find(|&columns| fits(bars.iter().map(|b| (b.a as usize, b.b as usize)), columns))
         .map(|columns| GridShape { columns: columns as u32, rows: (n / columns) as u32 })
+}
+
+/// Marks an empty place in [`from_triangles`]' lists.
+const NONE: u32 = u32::MAX;
+
+/// A triangulated sheet's grid from its triangles, in any numbering: the
+/// shape and each particle's grid index, or `None` when the triangles are
+/// not two to a cell of one C × R grid.
+///
+/// Each triangle's longest edge (in the mesh's rest shape) is a cell's
+/// diagonal; its other two are grid lines, so every particle has at most
+/// four line neighbours. Row 0 runs from the corner of least index (two
+/// line neighbours) along the rim (lines in one triangle only) to the next
+/// corner. Each particle of a later row is the one line neighbour of the
+/// particle above it that is neither beside that one nor above it. Every
+/// particle must be placed exactly once; the caller then checks every bar.
+fn from_triangles(mesh: &ClothMesh) -> Option<(GridShape, Vec<u32>)> {
+    let (n, x) = (mesh.positions().len(), mesh.positions());
+    let triangles = mesh.triangles();
+    if triangles.is_empty() {
+        return None;
+    }
+    // Grid lines, each with the number of triangles it borders.
+    let mut lines: Vec<(u32, u32)> = Vec::with_capacity(2 * triangles.len());
+    for t in triangles {
+        let edges = [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])];
+        let length = |(a, b): (u32, u32)| x[a as usize].distance_squared(x[b as usize]);
+        let longest = (0..3).max_by(|&i, &j| length(edges[i]).total_cmp(&length(edges[j])))?;
+        for (k, &(a, b)) in edges.iter().enumerate() {
+            if k != longest {
+                lines.push((a.min(b), a.max(b)));
+            }
+        }
+    }
+    lines.sort_unstable();
+    let mut neighbours = vec![[NONE; 4]; n];
+    let mut rim = vec![[false; 4]; n];
+    let mut start = 0;
+    while start < lines.len() {
+        let end = start + lines[start..].iter().take_while(|&&l| l == lines[start]).count();
+        let (a, b) = lines[start];
+        for (from, to) in [(a, b), (b, a)] {
+            let slot = neighbours[from as usize].iter().position(|&j| j == NONE)?;
+            neighbours[from as usize][slot] = to;
+            rim[from as usize][slot] = end - start == 1;
+        }
+        start = end;
+    }
+    let degree = |i: u32| neighbours[i as usize].iter().filter(|&&j| j != NONE).count();
+    let corner = (0..n as u32).find(|&i| degree(i) == 2)?;
+    // Row 0: along the rim from the corner to the next corner.
+    let mut rows: Vec<Vec<u32>> = vec![vec![corner]];
+    let mut previous = NONE;
+    loop {
+        let row = &rows[0];
+        let here = *row.last()?;
+        if row.len() > 1 && degree(here) == 2 {
+            break;
+        }
+        let next = (0..4).find(|&s| {
+            let j = neighbours[here as usize][s];
+            j != NONE && j != previous && rim[here as usize][s]
+        })?;
+        previous = here;
+        rows[0].push(neighbours[here as usize][next]);
+        if rows[0].len() > n {
+            return None;
+        }
+    }
+    let columns = rows[0].len();
+    let mut placed = vec![false; n];
+    for &i in &rows[0] {
+        placed[i as usize] = true;
+    }
+    loop {
+        let r = rows.len();
+        let (above, beside) = (if r >= 2 { Some(&rows[r - 2]) } else { None }, &rows[r - 1]);
+        let below: Vec<Option<u32>> = (0..columns)
+            .map(|c| {
+                let i = beside[c];
+                let known = |j: u32| {
+                    (c > 0 && beside[c - 1] == j) || beside.get(c + 1) == Some(&j) || above.is_some_and(|a| a[c] == j)
+                };
+                let mut down = neighbours[i as usize].iter().copied().filter(|&j| j != NONE && !known(j));
+                let first = down.next();
+                if down.next().is_some() { Some(NONE) } else { first }
+            })
+            .collect();
+        if below.iter().all(Option::is_none) {
+            break;
+        }
+        let row: Vec<u32> = below.into_iter().collect::<Option<Vec<u32>>>()?;
+        for &i in &row {
+            if i == NONE || std::mem::replace(&mut placed[i as usize], true) {
+                return None;
+            }
+        }
+        rows.push(row);
+    }
+    if rows.len() < 2 || rows.len() * columns != n {
+        return None;
+    }
+    let mut number = vec![0u32; n];
+    for (r, row) in rows.iter().enumerate() {
+        for (c, &i) in row.iter().enumerate() {
+            number[i as usize] = (r * columns) as u32 + c as u32;
+        }
+    }
+    Some((GridShape { columns: columns as u32, rows: rows.len() as u32 }, number))
 }
 
 /// Whether every pair is one of the offsets on a grid of `columns`.
@@ -67,10 +205,11 @@ pub(super) struct BarTable {
 const CLASSES: usize = Offset::ALL.len();
 
 impl BarTable {
-    /// `None` when a bar is none of the offsets, or two bars share a cell
-    /// and an offset.
-    pub(super) fn new(mesh: &ClothMesh, orientation: &Orientation) -> Option<Self> {
-        let (columns, rows) = orientation.size();
+    /// `cell(i)`: scene particle i's (column, row) in the layout's
+    /// orientation, of `size` (columns, rows). `None` when a bar is none of
+    /// the offsets, or two bars share a cell and an offset.
+    pub(super) fn new(mesh: &ClothMesh, cell: impl Fn(usize) -> (usize, usize), size: (usize, usize)) -> Option<Self> {
+        let (columns, rows) = size;
         let mut table = BarTable {
             columns,
             rest: vec![f32::NAN; columns * rows * CLASSES],
@@ -80,8 +219,8 @@ impl BarTable {
         // Per class: sum, least, most, count.
         let mut stats = [(0.0f64, f32::INFINITY, 0.0f32, 0usize); CLASSES];
         for bar in mesh.bars() {
-            let (ca, ra) = orientation.cell(bar.a as usize);
-            let (cb, rb) = orientation.cell(bar.b as usize);
+            let (ca, ra) = cell(bar.a as usize);
+            let (cb, rb) = cell(bar.b as usize);
             let offset = Offset::from_delta(cb as isize - ca as isize, rb as isize - ra as isize)?;
             // The first end: the upper one, or the left one on a row.
             let (c, r) = if (rb, cb) < (ra, ca) { (cb, rb) } else { (ca, ra) };
@@ -121,23 +260,44 @@ impl BarTable {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::fast::grid::tests::{ALTERNATE, DOWN, UP, triangle_sheet};
+    use crate::sim::fast::grid::tests::{ALTERNATE, DOWN, UP, renumbered, triangle_sheet};
     use crate::sim::mesh::{Grid, Pins};
 
     #[test]
-    fn a_sheet_numbered_row_by_row_is_found_and_others_are_not() {
+    fn a_sheet_is_found_in_any_numbering_and_other_meshes_are_not() {
         for (flip, diagonals) in [(DOWN, "down"), (UP, "up"), (ALTERNATE, "alternating")] {
             // 40 × 25 and its transpose: C is found from either side.
             for (c, r) in [(40, 25), (25, 40), (17, 3)] {
-                let shape = implied_shape(&triangle_sheet(c, r, flip));
-                assert_eq!(shape, Some(GridShape { columns: c, rows: r }), "{c} × {r}, diagonals {diagonals}");
+                let sheet = triangle_sheet(c, r, flip);
+                let found = implied_grid(&sheet).expect("a grid");
+                assert_eq!(found.shape, GridShape { columns: c, rows: r }, "{c} × {r}, diagonals {diagonals}");
+                assert!(found.number.is_none(), "numbered row by row already");
+                // Renumbered, the triangles give the same grid, up to which
+                // corner it starts from: every bar still joins cells of
+                // one of the offsets (checked inside), and the particles
+                // pinned in one row of the sheet are in one row or column.
+                let moved = renumbered(&sheet);
+                let found = implied_grid(&moved).expect("a grid");
+                let number = found.number.expect("a numbering");
+                let shape = found.shape;
+                assert!(
+                    [(c, r), (r, c)].contains(&(shape.columns, shape.rows)),
+                    "{c} × {r}, diagonals {diagonals}: found {shape:?}"
+                );
+                let pinned: Vec<(u32, u32)> = (0..moved.fixed().len())
+                    .filter(|&i| moved.fixed()[i])
+                    .map(|i| (number[i] % shape.columns, number[i] / shape.columns))
+                    .collect();
+                let one_row = pinned.iter().all(|p| p.1 == pinned[0].1);
+                let one_column = pinned.iter().all(|p| p.0 == pinned[0].0);
+                assert!(one_row || one_column, "{c} × {r}, diagonals {diagonals}: pins at {pinned:?}");
             }
         }
         // A grid that says its shape is found from its bars too (the same C).
         let grid = Grid { columns: 20, rows: 30, pins: Pins::TopRow, ..Grid::default() }.build().unwrap();
-        assert_eq!(implied_shape(&grid), grid.grid());
-        // The same sheet with two particles swapped: a bar now jumps across
-        // the sheet, and no C makes it a grid.
+        assert_eq!(implied_grid(&grid).map(|g| g.shape), grid.grid());
+        // The sheet with two particles swapped (positions and triangles): no
+        // longer numbered row by row, but its triangles still give the grid.
         let sheet = triangle_sheet(40, 25, DOWN);
         let swap = |i: u32| match i {
             41 => 530,
@@ -148,6 +308,17 @@ mod tests {
         positions.swap(41, 530);
         let triangles = sheet.triangles().iter().map(|t| t.map(swap)).collect();
         let swapped = ClothMesh::from_triangles(positions, triangles, &[0, 39], None).unwrap();
-        assert_eq!(implied_shape(&swapped), None);
+        assert!(implied_grid(&swapped).is_some_and(|g| g.number.is_some()));
+        // One cell split into four triangles around a particle at its centre:
+        // no grid, in any numbering.
+        let mut positions = sheet.positions().to_vec();
+        let (a, b, c, d) = (410, 411, 450, 451);
+        positions.push((positions[a as usize] + positions[d as usize]) * 0.5);
+        let centre = positions.len() as u32 - 1;
+        let mut triangles: Vec<[u32; 3]> =
+            sheet.triangles().iter().copied().filter(|t| !(t.contains(&a) && t.contains(&d))).collect();
+        triangles.extend([[centre, a, c], [centre, c, d], [centre, d, b], [centre, b, a]]);
+        let fan = ClothMesh::from_triangles(positions, triangles, &[0, 39], None).unwrap();
+        assert!(implied_grid(&fan).is_none());
     }
 }
