@@ -229,7 +229,14 @@ fn self_collision(c: &mut Criterion) {
 /// diagonals) in the x–y plane, `spacing` apart, hung by its top row: a
 /// triangle mesh, so it takes the coloured path, not the grid's lanes.
 fn triangle_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
-    numbered_sheet(n, spacing, |i| i)
+    numbered_sheet(n, spacing, |i| i, |_, _| 0.0)
+}
+
+/// [`triangle_sheet`] whose rest shape is a wave 0.3 m high (z = 0.3 sin 2x
+/// cos 1.5y), as a sheet modelled draped over something would be: every
+/// bar has its own rest length.
+fn wavy_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
+    numbered_sheet(n, spacing, |i| i, |x, y| 0.3 * (2.0 * x).sin() * (1.5 * y).cos())
 }
 
 /// [`triangle_sheet`] with its particles numbered in a shuffled order (a
@@ -241,17 +248,24 @@ fn shuffled_sheet(n: u32, spacing: f32) -> drape::sim::ClothMesh {
         state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         new_index.swap(i, (state >> 33) as usize % (i + 1));
     }
-    numbered_sheet(n, spacing, |i| new_index[i as usize])
+    numbered_sheet(n, spacing, |i| new_index[i as usize], |_, _| 0.0)
 }
 
 /// An n × n triangulated sheet hung by its top row; particle (c, r) gets
-/// the index `number(r·n + c)` (a permutation).
-fn numbered_sheet(n: u32, spacing: f32, number: impl Fn(u32) -> u32) -> drape::sim::ClothMesh {
+/// the index `number(r·n + c)` (a permutation), and sits at z = `height(x,
+/// y)`.
+fn numbered_sheet(
+    n: u32,
+    spacing: f32,
+    number: impl Fn(u32) -> u32,
+    height: impl Fn(f32, f32) -> f32,
+) -> drape::sim::ClothMesh {
     let index = |c: u32, r: u32| number(r * n + c);
     let mut positions = vec![Vec3::ZERO; (n * n) as usize];
     for r in 0..n {
         for c in 0..n {
-            positions[index(c, r) as usize] = Vec3::new(c as f32 * spacing, -(r as f32) * spacing, 0.0);
+            let (x, y) = (c as f32 * spacing, -(r as f32) * spacing);
+            positions[index(c, r) as usize] = Vec3::new(x, y, height(x, y));
         }
     }
     let mut triangles = Vec::with_capacity(2 * (n as usize - 1).pow(2));
@@ -315,9 +329,9 @@ fn ring_disc(rings: u32, spacing: f32) -> drape::sim::ClothMesh {
 /// Meshes that are not grids (OBJ files, triangle meshes) take the coloured
 /// path: the bundled tablecloth (1 801 vertices) and a disc of the same
 /// build with 101 017 ([`ring_disc`]). A 320 × 320 triangulated sheet
-/// (102 400 vertices), in row order and shuffled, is a grid the fast solver
-/// finds (in its numbering, then in its triangles) and runs on the grid's
-/// lanes. 20 relaxations, light seed wind, reference beside fast on one
+/// (102 400 vertices), in row order, shuffled and with a wavy rest shape,
+/// is a grid the fast solver finds (in its numbering, or in its triangles)
+/// and runs on the grid's lanes. 20 relaxations, light seed wind, reference beside fast on one
 /// thread and on all threads.
 fn meshes(c: &mut Criterion) {
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
@@ -338,6 +352,7 @@ fn meshes(c: &mut Criterion) {
         ("tablecloth", (*tablecloth.mesh).clone(), SolverParams { relaxations: 20, ..tablecloth.params.clone() }),
         ("sheet-320", sheet, sheet_params.clone()),
         ("sheet-320-shuffled", shuffled_sheet(320, 0.02), sheet_params.clone()),
+        ("sheet-320-wavy", wavy_sheet(320, 0.02), sheet_params.clone()),
         ("disc-183", ring_disc(183, 0.02), sheet_params),
     ];
     for (mesh_name, mesh, params) in cases {

@@ -88,8 +88,8 @@ struct EdgeLanes {
 
 impl EdgeLanes {
     /// The lane layout of `mesh`'s grid with the edges `ends` alone, or
-    /// `None` when the mesh is not a grid the layout takes (its edges not
-    /// all there, or of unequal rest lengths).
+    /// `None` when the mesh is not a grid the layout takes (an operation's
+    /// lanes finding an edge in some and none in others).
     fn new(mesh: &ClothMesh, ends: &[[u32; 2]], rest: &[f64]) -> Option<Self> {
         let grid = mesh.grid()?;
         let edges = ClothMesh::new(MeshParts {

@@ -30,8 +30,10 @@
 //! one rest length each. A triangle mesh numbered row by row ([`shape`])
 //! may leave out bars (diagonals alternating as on a chequerboard, a gap
 //! between two sheets): an operation runs when each of its lanes finds a
-//! bar of one kind and rest length, and is left out when none does; a mix
-//! leaves the mesh to the coloured path.
+//! bar of one kind, and is left out when none does; a mix leaves the mesh
+//! to the coloured path. Its rest shape need not be even either: where an
+//! operation's eight rest lengths differ, each tile keeps them
+//! ([`Tile::rests`]) and each lane takes its own.
 //!
 //! **Order.** Row by row; within a row class by class (H, V, D, A, BH, BV,
 //! then the knight's moves);
@@ -213,6 +215,10 @@ struct Tile {
     shared: [Vec<Weights<F32x8>>; KINDS],
     /// μ = βλ of every operation's eight bars (compliant bars only).
     multipliers: Vec<F32x8>,
+    /// Every operation's eight rest lengths, when some operation's bars
+    /// differ from lane to lane (a sheet whose rest shape is not even);
+    /// empty otherwise, when each operation's one [`Op::rest`] serves.
+    rests: Vec<F32x8>,
     /// Each particle's tether anchor position, and its rest path length
     /// (+∞ without one); empty when tethers are off.
     tether_anchor: Vec<Slot>,
@@ -251,14 +257,12 @@ fn seam_groups(seams: &[SeamBar], block: u32) -> (Vec<SeamBar>, Vec<u32>) {
             _ => rows.push(vec![*s]),
         }
     }
-    // Within a row, bars are told apart by kind, rest length and how many
-    // of the same came before: the k-th bend bar of 2 spacings, say. The
-    // last row lacks some (no diagonal leaves it); every row has its bars in
-    // the order of the fullest row.
-    let key = |row: &[SeamBar], i: usize| {
-        let same = |s: &SeamBar| (s.kind, s.rest.to_bits()) == (row[i].kind, row[i].rest.to_bits());
-        (row[i].kind, row[i].rest.to_bits(), row[..i].iter().filter(|s| same(s)).count())
-    };
+    // Within a row, bars are told apart by kind and how many of that kind
+    // came before: the second bend bar, say (a group's bars share their
+    // kind, so their β; rest lengths go lane by lane). The last row lacks
+    // some (no diagonal leaves it); every row has its bars in the order of
+    // the fullest row.
+    let key = |row: &[SeamBar], i: usize| (row[i].kind, row[..i].iter().filter(|s| s.kind == row[i].kind).count());
     let keys = |row: &[SeamBar]| (0..row.len()).map(|i| key(row, i)).collect::<Vec<_>>();
     let fullest = rows.iter().max_by_key(|r| r.len()).map(|r| keys(r)).unwrap_or_default();
     let (mut out, mut ends) = (Vec::with_capacity(seams.len()), Vec::new());
@@ -279,18 +283,22 @@ fn seam_groups(seams: &[SeamBar], block: u32) -> (Vec<SeamBar>, Vec<u32>) {
 }
 
 /// How far apart the rest lengths of an operation's eight bars may be, as
-/// a share of the longest: they are projected with their mean. A sheet's
-/// bars of one kind and direction differ by the rounding of its positions
-/// (2 × 10⁻⁵ for a 320 × 320 sheet 2 cm apart); 10⁻⁴ of a length is far
-/// below the strain a solve leaves (the seed's cloth stretches by 51 %, the
-/// inextensible scenes stop at 0.8 %).
+/// a share of the longest, for them to be projected with their mean (one
+/// number an operation); further apart, each lane takes its own. A flat
+/// sheet's bars of one kind and direction differ by the rounding of its
+/// positions (2 × 10⁻⁵ for a 320 × 320 sheet 2 cm apart); 10⁻⁴ of a length
+/// is far below the strain a solve leaves (the seed's cloth stretches by
+/// 51 %, the inextensible scenes stop at 0.8 %).
 const LANE_REST_SPREAD: f32 = 1e-4;
 
 /// What the lanes of one operation find: a bar of one kind and rest length
-/// in every lane that holds one (up to [`LANE_REST_SPREAD`]), no bar in
-/// any, or a mix, which the layout cannot run.
+/// in every lane that holds one (up to [`LANE_REST_SPREAD`]); a bar of one
+/// kind in every lane, of rest lengths that differ (each tile's eight,
+/// lanes without a bar given the mean, which their zero weights never
+/// use); no bar in any; or a mix, which the layout cannot run.
 enum OpBar {
     Every(u8, f32),
+    Shaped(u8, f32, Vec<[f32; LANES]>),
     None,
     Mixed,
 }
@@ -311,7 +319,8 @@ fn op_bar(
 ) -> OpBar {
     let (dc, _) = offset.delta();
     let (mut found, mut missing) = (None::<(u8, f32, f32, f64, usize)>, false);
-    for t in 0..tiles {
+    let mut lane_rests = vec![[f32::NAN; LANES]; tiles];
+    for (t, lane_rests) in lane_rests.iter_mut().enumerate() {
         for l in lanes.clone() {
             let c = t * tile_columns + l * block + k;
             let cb = c as isize + dc;
@@ -328,13 +337,25 @@ fn op_bar(
                     *f = (kind, f.1.min(rest), f.2.max(rest), f.3 + f64::from(rest), f.4 + 1);
                 }
             }
+            // Lanes are by the bar's first end; a rotated operation seen
+            // from its lower end (Δc < 0) holds it one lane down.
+            let lane = if (k as isize + dc) < 0 { l - 1 } else { l };
+            lane_rests[lane] = table.get(c, r, offset).map_or(f32::NAN, |(_, rest)| rest);
         }
     }
-    match found {
-        None => OpBar::None,
-        Some(_) if missing => OpBar::Mixed,
-        Some((_, lo, hi, _, _)) if hi - lo > LANE_REST_SPREAD * hi => OpBar::Mixed,
-        Some((kind, lo, hi, sum, count)) => OpBar::Every(kind, if lo == hi { lo } else { (sum / count as f64) as f32 }),
+    let Some((kind, lo, hi, sum, count)) = found else {
+        return OpBar::None;
+    };
+    let mean = if lo == hi { lo } else { (sum / count as f64) as f32 };
+    if missing {
+        OpBar::Mixed
+    } else if hi - lo > LANE_REST_SPREAD * hi {
+        for rest in lane_rests.iter_mut().flatten().filter(|r| r.is_nan()) {
+            *rest = mean;
+        }
+        OpBar::Shaped(kind, mean, lane_rests)
+    } else {
+        OpBar::Every(kind, mean)
     }
 }
 
@@ -494,6 +515,8 @@ impl GridLayout {
 
         let slot = |r: usize, k: usize| (r * block + k) as u32;
         let tile_columns = LANES * block;
+        // Each operation's rest lengths by tile, when they differ by lane.
+        let mut lane_rests: Vec<Option<Vec<[f32; LANES]>>> = Vec::new();
         for r in 0..rows {
             layout.row_starts.push(layout.ops.len() as u32);
             for offset in Offset::ALL {
@@ -520,7 +543,14 @@ impl GridLayout {
                         0..LANES
                     };
                     let (kind, rest) = match op_bar(&table, offset, r, k, lanes, tile_count, tile_columns, block) {
-                        OpBar::Every(kind, rest) => (kind, rest),
+                        OpBar::Every(kind, rest) => {
+                            lane_rests.push(None);
+                            (kind, rest)
+                        }
+                        OpBar::Shaped(kind, mean, rests) => {
+                            lane_rests.push(Some(rests));
+                            (kind, mean)
+                        }
                         OpBar::None => continue,
                         OpBar::Mixed => return None,
                     };
@@ -557,6 +587,14 @@ impl GridLayout {
             }
         }
         layout.row_starts.push(layout.ops.len() as u32);
+        if lane_rests.iter().any(Option::is_some) {
+            for (t, tile) in layout.tiles.iter_mut().enumerate() {
+                let rest = |(op, rests): (&Op, &Option<Vec<[f32; LANES]>>)| {
+                    rests.as_ref().map_or(F32x8::splat(op.rest), |r| F32x8(r[t]))
+                };
+                tile.rests = layout.ops.iter().zip(&lane_rests).map(rest).collect();
+            }
+        }
         for tile in &mut layout.tiles {
             let (seams, ends) = seam_groups(&tile.seams, block as u32);
             (tile.seams, tile.seam_ends) = (seams, ends);

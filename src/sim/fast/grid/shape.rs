@@ -11,8 +11,8 @@
 //! and rows follow from one corner. Either way the lane layout can run the
 //! sheet as it runs a grid. [`BarTable`] then holds every bar by its cell
 //! and offset, for [`super::GridLayout::new`] to check that each of its
-//! operations' eight lanes finds a bar of one kind and rest length in
-//! every lane, or none in any.
+//! operations' eight lanes finds a bar of one kind in every lane, or none
+//! in any, and to give each lane its rest length.
 
 use super::Offset;
 use crate::sim::mesh::{ClothMesh, GridShape};

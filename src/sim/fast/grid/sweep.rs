@@ -81,7 +81,9 @@ fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f
         // they move nothing.
         let (mut pa, mut pb) = ([F32x8::splat(0.0); 3], [F32x8::splat(0.0); 3]);
         let (mut wa, mut wb, mut mu) = (F32x8::splat(0.0), F32x8::splat(0.0), F32x8::splat(0.0));
+        let mut rest = F32x8::splat(group[0].rest);
         for (l, seam) in group.iter().enumerate() {
+            rest.0[l] = seam.rest;
             let (sa, la, sb, lb) = ends(seam);
             for k in 0..3 {
                 pa[k].0[l] = a.position[sa][k].0[la];
@@ -93,7 +95,7 @@ fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f
                 mu.0[l] = a.seam_multipliers[start + l];
             }
         }
-        let (rest, kind) = (group[0].rest, group[0].kind as usize);
+        let kind = group[0].kind as usize;
         let beta = if XPBD { sweep.betas[kind] } else { 0.0 };
         let v = relax_lanes::<XPBD>(&mut pa, wa, &mut pb, wb, rest, &mut mu, beta, sweep.omega);
         for (l, seam) in group.iter().enumerate() {
@@ -105,7 +107,7 @@ fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f
             if XPBD {
                 a.seam_multipliers[start + l] = mu.0[l];
             }
-            worst = worst.max(excess(v.0[l], wa.0[l], wb.0[l], sweep.tolerance * rest));
+            worst = worst.max(excess(v.0[l], wa.0[l], wb.0[l], sweep.tolerance * seam.rest));
         }
         start = end;
     }
@@ -135,12 +137,13 @@ fn sweep_tile_body(tile: &mut Tile, sweep: &Sweep) -> f32 {
 fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
     let track = sweep.tolerance > 0.0;
     let mut worst = F32x8::splat(f32::NEG_INFINITY);
-    let Tile { position, weight, presence, shared, multipliers, .. } = tile;
+    let Tile { position, weight, presence, shared, multipliers, rests, .. } = tile;
     for (j, &op) in sweep.ops.iter().enumerate() {
+        let rest = op_rest(rests, j, op);
         let (violation, wa, wb) =
-            relax_op::<XPBD, PADDED, UNIFORM>(position, weight, presence, shared, multipliers, j, op, sweep);
+            relax_op::<XPBD, PADDED, UNIFORM>(position, weight, presence, shared, multipliers, j, op, rest, sweep);
         if track {
-            worst = worst.max(excess(violation, wa, wb, F32x8::splat(op.rest * sweep.tolerance)));
+            worst = worst.max(excess(violation, wa, wb, rest * F32x8::splat(sweep.tolerance)));
         }
     }
     worst.max_lane()
@@ -181,7 +184,7 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
 ) {
     const LAG: usize = 3;
     let rows = row_starts.len() - 1;
-    let Tile { position, weight, presence, shared, multipliers, .. } = tile;
+    let Tile { position, weight, presence, shared, multipliers, rests, .. } = tile;
     let mut done = 0;
     while done < sweeps {
         let depth = (sweeps - done).min(PIPELINE_DEPTH as u32) as usize;
@@ -207,6 +210,7 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
                             multipliers,
                             start + j,
                             op,
+                            op_rest(rests, start + j, op),
                             sweep,
                         );
                     }
@@ -220,6 +224,13 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
 /// Sweeps in flight in [`sweep_tile_pipelined`].
 const PIPELINE_DEPTH: usize = 4;
 
+/// Operation `j`'s eight rest lengths: the tile's own when its bars differ
+/// by lane ([`Tile::rests`]), else the operation's one.
+#[inline(always)]
+fn op_rest(rests: &[F32x8], j: usize, op: Op) -> F32x8 {
+    if rests.is_empty() { F32x8::splat(op.rest) } else { rests[j] }
+}
+
 /// Projects the eight bars of operation `j`. Returns the violations and the
 /// weights used (for the tolerance test).
 #[inline(always)]
@@ -232,6 +243,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
     multipliers: &mut [F32x8],
     j: usize,
     op: Op,
+    rest: F32x8,
     sweep: &Sweep,
 ) -> (F32x8, F32x8, F32x8) {
     let (ia, ib) = op.slots();
@@ -239,7 +251,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
     let mut dummy = F32x8::splat(0.0);
     let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
     if UNIFORM {
-        return relax_op_shared::<XPBD>(position, &shared[op.kind()], mu, op, beta);
+        return relax_op_shared::<XPBD>(position, &shared[op.kind()], mu, op, rest, beta);
     }
     let (mut a, mut wa) = (position[ia], weight[ia]);
     if !op.rotated() {
@@ -248,7 +260,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
             // A bar to padding does not exist: neither end moves.
             (wa, wb) = (wa * presence[ib], wb * presence[ia]);
         }
-        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, op.rest, mu, beta, sweep.omega);
+        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
         position[ib] = b;
         position[ia] = a;
         (v, wa, wb)
@@ -263,7 +275,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
         }
         wa.0[LANES - 1] = 0.0;
         wb.0[LANES - 1] = 0.0;
-        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, op.rest, mu, beta, sweep.omega);
+        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
         position[ib] = b.map(F32x8::rotate_up);
         position[ia] = a;
         (v, wa, wb)
@@ -279,6 +291,7 @@ fn relax_op_shared<const XPBD: bool>(
     shared: &[Weights<F32x8>],
     mu: &mut F32x8,
     op: Op,
+    rest: F32x8,
     beta: f32,
 ) -> (F32x8, F32x8, F32x8) {
     let (ia, ib) = op.slots();
@@ -286,7 +299,7 @@ fn relax_op_shared<const XPBD: bool>(
     let moves = |wa: &Weights<F32x8>, wb: &Weights<F32x8>| (wa.own * wb.partner, wb.own * wa.partner);
     if !op.rotated() {
         let (mut b, wb) = (position[ib], shared[ib]);
-        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, op.rest, mu, beta);
+        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
         position[ib] = b;
         position[ia] = a;
         let (sa, sb) = moves(&wa, &wb);
@@ -298,7 +311,7 @@ fn relax_op_shared<const XPBD: bool>(
         let mut wb = Weights { own: shared[ib].own.rotate_down(), partner: shared[ib].partner.rotate_down() };
         wb.own.0[LANES - 1] = 0.0;
         wb.partner.0[LANES - 1] = 0.0;
-        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, op.rest, mu, beta);
+        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
         position[ib] = b.map(F32x8::rotate_up);
         position[ia] = a;
         let (sa, sb) = moves(&wa, &wb);
@@ -313,7 +326,7 @@ fn shared_lanes<const XPBD: bool>(
     wa: &Weights<F32x8>,
     b: &mut Slot,
     wb: &Weights<F32x8>,
-    rest: f32,
+    rest: F32x8,
     mu: &mut F32x8,
     beta: f32,
 ) -> F32x8 {
@@ -323,7 +336,7 @@ fn shared_lanes<const XPBD: bool>(
         let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
         let wal = Weights { own: wa.own.0[l], partner: wa.partner.0[l] };
         let wbl = Weights { own: wb.own.0[l], partner: wb.partner.0[l] };
-        violation.0[l] = relax_pair_shared::<f32, XPBD>(&mut pa, wal, &mut pb, wbl, rest, &mut mu.0[l], beta);
+        violation.0[l] = relax_pair_shared::<f32, XPBD>(&mut pa, wal, &mut pb, wbl, rest.0[l], &mut mu.0[l], beta);
         for k in 0..3 {
             a[k].0[l] = pa[k];
             b[k].0[l] = pb[k];
@@ -341,7 +354,7 @@ fn relax_lanes<const XPBD: bool>(
     wa: F32x8,
     b: &mut Slot,
     wb: F32x8,
-    rest: f32,
+    rest: F32x8,
     mu: &mut F32x8,
     beta: f32,
     omega: f32,
@@ -350,7 +363,8 @@ fn relax_lanes<const XPBD: bool>(
     for l in 0..LANES {
         let mut pa = [a[0].0[l], a[1].0[l], a[2].0[l]];
         let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
-        violation.0[l] = relax_pair::<f32, XPBD>(&mut pa, wa.0[l], &mut pb, wb.0[l], rest, &mut mu.0[l], beta, omega);
+        violation.0[l] =
+            relax_pair::<f32, XPBD>(&mut pa, wa.0[l], &mut pb, wb.0[l], rest.0[l], &mut mu.0[l], beta, omega);
         for k in 0..3 {
             a[k].0[l] = pa[k];
             b[k].0[l] = pb[k];

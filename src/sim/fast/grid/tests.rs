@@ -141,6 +141,15 @@ fn shapes() -> Vec<(ClothMesh, &'static str)> {
     meshes.push((triangle_sheet(130, 15, ALTERNATE), "a chequerboard sheet of three tiles"));
     // The same in another numbering: the grid comes from the triangles.
     meshes.push((renumbered(&triangle_sheet(130, 15, ALTERNATE)), "the chequerboard sheet renumbered"));
+    // A rest shape that is not even (every bar its own rest length: each
+    // operation takes eight), in row order and renumbered.
+    let bumpy = |mesh: &ClothMesh| {
+        let positions = jittered(mesh.positions(), 0.01);
+        let pinned: Vec<u64> = (0..mesh.fixed().len() as u64).filter(|&i| mesh.fixed()[i as usize]).collect();
+        ClothMesh::from_triangles(positions, mesh.triangles().to_vec(), &pinned, None).expect("a valid sheet")
+    };
+    meshes.push((bumpy(&triangle_sheet(130, 15, ALTERNATE)), "a bumpy chequerboard sheet"));
+    meshes.push((renumbered(&bumpy(&triangle_sheet(70, 12, DOWN))), "a bumpy sheet renumbered"));
     meshes
 }
 
