@@ -64,6 +64,8 @@ use super::step::Solver;
 use super::tether::Tethers;
 use generic::GenericLayout;
 pub(crate) use grid::GridLayout;
+#[cfg(test)]
+pub(crate) use grid::tests as grid_tests;
 
 /// The fast solver for a mesh: the lane layout for a grid mesh, the
 /// coloured layout otherwise. `inverse_mass` is each particle's weight

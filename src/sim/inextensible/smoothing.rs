@@ -91,13 +91,15 @@ impl EdgeLanes {
     /// `None` when the mesh is not a grid the layout takes (an operation's
     /// lanes finding an edge in some and none in others).
     fn new(mesh: &ClothMesh, ends: &[[u32; 2]], rest: &[f64]) -> Option<Self> {
-        let grid = mesh.grid()?;
+        // The mesh's grid, or its triangles for the layout to find one in
+        // (a triangulated sheet in any numbering).
         let edges = ClothMesh::new(MeshParts {
             positions: mesh.positions().to_vec(),
             fixed: mesh.fixed().to_vec(),
             bars: ends.iter().map(|&[a, b]| (a, b, BarKind::Structural)).collect(),
             rest_lengths: rest.iter().map(|&l| l as f32).collect(),
-            grid: Some(grid),
+            triangles: mesh.triangles().to_vec(),
+            grid: mesh.grid(),
             ..MeshParts::default()
         })
         .ok()?;
@@ -426,7 +428,21 @@ mod tests {
         // local error the passes are for: 2.6 % strain), unequal weights;
         // one more particle pinned between calls (a weight that changes is
         // written to the lanes).
-        let mesh = Grid { columns: 20, rows: 30, spacing: 0.5, pins: Pins::TopRow, ..Grid::default() }.build().unwrap();
+        let grid = Grid { columns: 20, rows: 30, spacing: 0.5, pins: Pins::TopRow, ..Grid::default() }.build().unwrap();
+        // And a triangulated sheet of 24 × 20, chequerboard diagonals,
+        // renumbered: its edges' grid comes from its triangles.
+        use crate::sim::fast::grid_tests::{ALTERNATE, renumbered, triangle_sheet};
+        let sheet = renumbered(&triangle_sheet(24, 20, ALTERNATE));
+        // The particle to pin between calls: in the second row, a bar
+        // below the pinned first row (so its pin leaves the edges a shape
+        // they can take); in the sheet, (5, 1) numbered anew: 29 · 7919 mod
+        // 480 = 211.
+        for (mesh, pin) in [(grid, 25), (sheet, 211)] {
+            grids_passes_run_in_the_lanes(&mesh, pin);
+        }
+    }
+
+    fn grids_passes_run_in_the_lanes(mesh: &ClothMesh, pin: usize) {
         let edges: Vec<_> = mesh.bars().iter().filter(|b| mesh.is_edge(b)).collect();
         let ends: Vec<[u32; 2]> = edges.iter().map(|b| [b.a, b.b]).collect();
         let rest: Vec<f64> = edges.iter().map(|b| f64::from(b.rest_length)).collect();
@@ -442,7 +458,7 @@ mod tests {
                 if mesh.fixed()[i] { p } else { p + jolt }
             })
             .collect();
-        let mut lanes = Smoothing::new(&mesh, &ends, &rest);
+        let mut lanes = Smoothing::new(mesh, &ends, &rest);
         assert!(lanes.lanes.is_some(), "a grid's edges go in the lane layout");
         let mut rows = lanes.clone();
         rows.lanes = None;
@@ -451,18 +467,16 @@ mod tests {
             smoothing.set_weights(&weights, 0.0);
             smoothing.passes(8, x, &mut [], &rest, 0.0);
         }
-        // Particle 25, in the second row, a bar below the pinned row (so its
-        // pin leaves the edges a shape they can take).
-        weights[25] = 0.0;
-        let held = a[25];
+        weights[pin] = 0.0;
+        let held = a[pin];
         for (smoothing, x) in [(&mut lanes, &mut a), (&mut rows, &mut b)] {
             smoothing.set_weights(&weights, 0.0);
             smoothing.passes(40, x, &mut [], &rest, 0.0);
         }
         // Fixed particles stayed where they were, to the bit.
-        assert_eq!(a[25], held);
+        assert_eq!(a[pin], held);
         for (i, &w) in weights.iter().enumerate() {
-            if w == 0.0 && i != 25 {
+            if w == 0.0 && i != pin {
                 assert_eq!(a[i], start[i], "pinned particle {i}");
             }
         }

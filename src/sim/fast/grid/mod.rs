@@ -70,7 +70,7 @@ mod phases;
 mod shape;
 mod sweep;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 use glam::Vec3;
 

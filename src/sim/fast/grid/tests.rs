@@ -36,17 +36,17 @@ impl GridLayout {
 }
 
 /// Which cells `(c, r)` of [`triangle_sheet`] take the other diagonal.
-pub(super) type Flip = fn(u32, u32) -> bool;
+pub(crate) type Flip = fn(u32, u32) -> bool;
 /// Every diagonal from top left to bottom right.
-pub(super) const DOWN: Flip = |_, _| false;
+pub(crate) const DOWN: Flip = |_, _| false;
 /// Every diagonal from top right to bottom left.
-pub(super) const UP: Flip = |_, _| true;
+pub(crate) const UP: Flip = |_, _| true;
 /// Alternating, as in a chequerboard (the bench's sheet).
-pub(super) const ALTERNATE: Flip = |c, r| (c + r) % 2 == 1;
+pub(crate) const ALTERNATE: Flip = |c, r| (c + r) % 2 == 1;
 
 /// A C × R sheet of two triangles a cell, numbered row by row, hung by
 /// its first row; `flip` chooses each cell's diagonal.
-pub(super) fn triangle_sheet(columns: u32, rows: u32, flip: Flip) -> ClothMesh {
+pub(crate) fn triangle_sheet(columns: u32, rows: u32, flip: Flip) -> ClothMesh {
     let positions =
         (0..columns * rows).map(|i| Vec3::new((i % columns) as f32 * 0.1, -((i / columns) as f32) * 0.1, 0.0));
     let mut triangles = Vec::new();
@@ -68,7 +68,7 @@ pub(super) fn triangle_sheet(columns: u32, rows: u32, flip: Flip) -> ClothMesh {
 /// `mesh` (from triangles) with its particles numbered anew: particle i
 /// becomes `(i · 7919) mod n` (a permutation when n is not a multiple of
 /// 7919, a prime), so neighbours are far apart in the numbering.
-pub(super) fn renumbered(mesh: &ClothMesh) -> ClothMesh {
+pub(crate) fn renumbered(mesh: &ClothMesh) -> ClothMesh {
     let n = mesh.positions().len() as u64;
     let new = |i: u32| ((u64::from(i) * 7919) % n) as u32;
     let mut positions = vec![Vec3::ZERO; n as usize];
