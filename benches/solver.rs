@@ -328,11 +328,12 @@ fn ring_disc(rings: u32, spacing: f32) -> drape::sim::ClothMesh {
 
 /// Meshes that are not grids (OBJ files, triangle meshes) take the coloured
 /// path: the bundled tablecloth (1 801 vertices) and a disc of the same
-/// build with 101 017 ([`ring_disc`]). A 320 × 320 triangulated sheet
-/// (102 400 vertices), in row order, shuffled and with a wavy rest shape,
-/// is a grid the fast solver finds (in its numbering, or in its triangles)
-/// and runs on the grid's lanes. 20 relaxations, light seed wind, reference beside fast on one
-/// thread and on all threads.
+/// build with 101 017 ([`ring_disc`]). Triangulated sheets are grids the
+/// fast solver finds (in their numbering, or in their triangles) and runs
+/// on the grid's lanes: one of 42 × 42 (the tablecloth's size) and three
+/// of 320 × 320 (102 400 vertices: in row order, shuffled, and with a wavy
+/// rest shape). 20 relaxations, light seed wind, reference beside fast on
+/// one thread and on all threads.
 fn meshes(c: &mut Criterion) {
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
     let mut group = c.benchmark_group("mesh");
@@ -350,6 +351,7 @@ fn meshes(c: &mut Criterion) {
     };
     let cases = [
         ("tablecloth", (*tablecloth.mesh).clone(), SolverParams { relaxations: 20, ..tablecloth.params.clone() }),
+        ("sheet-42", triangle_sheet(42, 0.05), sheet_params.clone()),
         ("sheet-320", sheet, sheet_params.clone()),
         ("sheet-320-shuffled", shuffled_sheet(320, 0.02), sheet_params.clone()),
         ("sheet-320-wavy", wavy_sheet(320, 0.02), sheet_params.clone()),
