@@ -32,14 +32,7 @@ pub(super) fn implied_grid(mesh: &ClothMesh) -> Option<ImpliedGrid> {
         return Some(ImpliedGrid { shape, number: None });
     }
     let (shape, number) = from_triangles(mesh)?;
-    let fits_all = mesh.bars().iter().all(|b| {
-        let cell = |i: u32| {
-            let k = number[i as usize] as usize;
-            ((k % shape.columns as usize) as isize, (k / shape.columns as usize) as isize)
-        };
-        let ((ca, ra), (cb, rb)) = (cell(b.a), cell(b.b));
-        Offset::from_delta(cb - ca, rb - ra).is_some()
-    });
+    let fits_all = fits(mesh, shape.columns as usize, |i| number[i as usize] as usize);
     fits_all.then_some(ImpliedGrid { shape, number: Some(number) })
 }
 
@@ -65,7 +58,7 @@ fn row_by_row(mesh: &ClothMesh) -> Option<GridShape> {
     candidates.dedup();
     candidates
         .into_iter()
-        .find(|&columns| fits(bars.iter().map(|b| (b.a as usize, b.b as usize)), columns))
+        .find(|&columns| fits(mesh, columns, |i| i as usize))
         .map(|columns| GridShape { columns: columns as u32, rows: (n / columns) as u32 })
 }
 
@@ -178,11 +171,12 @@ fn from_triangles(mesh: &ClothMesh) -> Option<(GridShape, Vec<u32>)> {
     Some((GridShape { columns: columns as u32, rows: rows.len() as u32 }, number))
 }
 
-/// Whether every pair is one of the offsets on a grid of `columns`.
-fn fits(mut pairs: impl Iterator<Item = (usize, usize)>, columns: usize) -> bool {
-    let cell = |i: usize| ((i % columns) as isize, (i / columns) as isize);
-    pairs.all(|(a, b)| {
-        let ((ca, ra), (cb, rb)) = (cell(a), cell(b));
+/// Whether every bar of `mesh` joins two cells one of the offsets apart on
+/// a grid of `columns`, particle i being at grid index `number(i)`.
+fn fits(mesh: &ClothMesh, columns: usize, number: impl Fn(u32) -> usize) -> bool {
+    let cell = |i: u32| ((number(i) % columns) as isize, (number(i) / columns) as isize);
+    mesh.bars().iter().all(|b| {
+        let ((ca, ra), (cb, rb)) = (cell(b.a), cell(b.b));
         Offset::from_delta(cb - ca, rb - ra).is_some()
     })
 }
