@@ -244,3 +244,48 @@ fn a_triangle_mesh_that_is_a_grid_runs_in_the_lanes_and_rests_where_the_referenc
         assert!((drop - 1.15).abs() < 0.01, "drop {drop}");
     }
 }
+
+#[test]
+fn a_quad_grid_from_an_obj_file_runs_in_the_lanes() {
+    // A modelling tool's subdivided plane as it writes it: 24 × 18 vertices
+    // row by row, printed with six decimals, and quads, which the OBJ reader
+    // cuts into fans (a b c d → a b c, a c d). The fast solver finds the grid
+    // in the vertex order and runs it on the lanes, and its step agrees with
+    // the reference's in stretch: after 1 s hanging (m = 2 g under m·g) in
+    // the seed's wind at 20 passes, RMS strain 0.45 % against 0.44 %
+    // (measured); we allow 20 %, the order of the projections differing.
+    // (Where 20 passes leave the cloth far from converged, order matters
+    // more: under the seed's force gravity on 2 g particles, 60 % on the
+    // lanes, 66 % on the coloured path, 42 % in the reference's creation
+    // order.)
+    let (columns, rows) = (24u32, 18u32);
+    let mut text = String::from("# a plane\n");
+    for r in 0..rows {
+        for c in 0..columns {
+            text += &format!("v {:.6} {:.6} 0.000000\n", c as f32 * 0.05, -(r as f32) * 0.05);
+        }
+    }
+    for r in 0..rows - 1 {
+        for c in 0..columns - 1 {
+            let i = r * columns + c + 1;
+            text += &format!("f {} {} {} {}\n", i, i + columns, i + columns + 1, i + 1);
+        }
+    }
+    let (positions, triangles) = drape::scene::parse_obj(&text).unwrap();
+    let pinned: Vec<u64> = (0..u64::from(columns)).collect();
+    let mesh = ClothMesh::from_triangles(positions, triangles, &pinned, None).unwrap();
+    let params = SolverParams {
+        relaxations: 20,
+        dt: 0.01,
+        mass: 0.002,
+        gravity: Vec3::new(0.0, -0.0196, 0.0),
+        wind: Wind::Seed { scale: 0.002 },
+        ..SolverParams::default()
+    };
+    let fast = run(&mesh, &params, SolverKind::Fast, 100);
+    let description = fast.solver_description();
+    assert!(description.contains("a grid found in the mesh's vertex order"), "{description}");
+    let reference = run(&mesh, &params, SolverKind::Reference, 100);
+    let (f, r) = (fast.strain().rms, reference.strain().rms);
+    assert!(f > 0.0 && (0.8..1.25).contains(&(f / r)), "RMS strain fast {f}, reference {r}");
+}
