@@ -14,9 +14,10 @@
 //! ([`move_ends`], written once for both), so the result has the bits of
 //! one by one.
 //!
-//! **On a grid** the rigid passes run on the fast solver's lane layout
-//! instead ([`EdgeLanes`]: the grid's horizontal and vertical edges alone,
-//! eight column blocks in the lanes, rows swept away from the pins with up
+//! **On a grid** (built as one, or a triangulated sheet the lane layout
+//! finds a grid in) the rigid passes run on the fast solver's lane layout
+//! instead ([`EdgeLanes`]: the grid's edges alone, eight column blocks in
+//! the lanes, rows swept away from the pins with up
 //! to four passes in flight, threaded on large grids), the same projection
 //! in the same row-by-row order up to which edges of a row go first (other
 //! bits, the same convergence: a test). The runs of rows leave a fifth of

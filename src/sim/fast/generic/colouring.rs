@@ -7,15 +7,15 @@
 //! **Blocks.** A mesh of more than [`BLOCK_PARTICLES`] particles is cut into
 //! blocks of consecutive particle indices, each at most that many (256 KiB
 //! of particles, which stay in a core's L2 cache while its colours are
-//! swept), a multiple of [`BLOCK_MULTIPLE`] blocks, so that two or four
-//! threads get equal shares. A bar with both ends in one block belongs to
-//! that block; the others, the boundary, form a last group of their own. A
-//! pass relaxes every block (in parallel on the rayon pool: blocks share no
-//! particle), then the boundary. The cut depends on the particle count
-//! only, so every thread count computes the same bits. Meshes whose vertex
-//! order is local (rows of a sheet, rings of the tablecloth) keep the
-//! boundary small: 1.8 % of the bars of a 320 × 320 sheet. When the scene's order puts more than
-//! 1 bar in 20 on the boundary (a mesh whose vertices jump around, as
+//! swept), as many as the next multiple of [`THREAD_SHARES`]. A bar with
+//! both ends in one block belongs to that block; the others, the boundary,
+//! form a last group of their own. A pass relaxes every block (in parallel
+//! on the rayon pool: blocks share no particle), then the boundary. The cut
+//! depends on the particle count only, so every thread count computes the
+//! same bits. Meshes whose vertex order is local (rows of a sheet, rings of
+//! the tablecloth) keep the boundary small: 1.8 % of the bars of a 320 ×
+//! 320 sheet. When the scene's order puts more than 1 bar in 20 on the
+//! boundary (a mesh whose vertices jump around, as
 //! subdivision leaves them), the layout renumbers the particles in
 //! [`breadth_first_order`] and keeps that if its boundary is smaller.
 
@@ -23,18 +23,11 @@ use rayon::prelude::*;
 
 use super::Particle;
 use super::sweep::{Sweep, relax_pass};
+use crate::sim::fast::THREAD_SHARES;
 use crate::sim::mesh::Bar;
 
 /// Most particles in a block (16 bytes each: 256 KiB).
 pub(super) const BLOCK_PARTICLES: usize = 16_384;
-
-/// A cut mesh has a multiple of this many blocks. Blocks are equal, so a
-/// count that the threads do not divide leaves one thread idle for the last
-/// block: a 320 × 320 sheet in 7 blocks took 14.6–15.2 ms a step on two
-/// threads, in 8 blocks 12.8 ms; a 200 × 200 sheet in 3 blocks 6.9 ms, in 4
-/// 4.8–5.2 ms (host D, Zen 4; one thread unchanged). The cut depends on the
-/// particle count only, never on the thread count.
-const BLOCK_MULTIPLE: usize = 4;
 
 /// Most colours tracked; bars that find none free go in one last group, which
 /// is still a correct Gauss–Seidel sweep, only not free of dependencies.
@@ -138,7 +131,7 @@ pub(super) struct BlockedBars {
 impl BlockedBars {
     pub(super) fn new(bars: &[Bar], particles: usize) -> Self {
         let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
-        let count = if count > 1 { count.next_multiple_of(BLOCK_MULTIPLE) } else { 1 };
+        let count = if count > 1 { count.next_multiple_of(THREAD_SHARES) } else { 1 };
         let block_size = particles.div_ceil(count).max(1);
         let mut inside: Vec<Vec<&Bar>> = vec![Vec::new(); count];
         let mut boundary = Vec::new();

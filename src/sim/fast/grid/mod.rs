@@ -74,19 +74,13 @@ pub(crate) mod tests;
 
 use glam::Vec3;
 
+use super::THREAD_SHARES;
 use super::kernel::{F32x8, LANES, Point, Real, Shares, Weights};
 use crate::sim::mesh::{BarKind, ClothMesh, GridShape};
 use crate::sim::tether::Tethers;
 
 /// Columns per block the tiling aims at; a tile holds `8 · block` columns.
 const TARGET_BLOCK: usize = 8;
-/// A threaded layout has a multiple of this many tiles (the nearest, at
-/// least one multiple), so that two or four threads get equal shares of
-/// each half of a sweep (even tiles, then odd ones). A 320-column sheet in
-/// 5 tiles took 6.65 ms a step on two threads, in 4 tiles 4.94 ms (host D;
-/// 10.3 and 9.5 ms on one). The count depends on the grid alone, never on
-/// the thread count.
-const TILE_MULTIPLE: usize = 4;
 /// Grids of at least this many particles sweep tiles on the thread pool.
 pub(crate) const PARALLEL_PARTICLES: usize = 16_384;
 /// Marks an operation whose far slot is rotated by one lane (in `Op::b`).
@@ -327,7 +321,8 @@ fn op_bar(
             if c >= table.columns() || cb < 0 || cb as usize >= table.columns() {
                 continue;
             }
-            match (table.get(c, r, offset), &mut found) {
+            let bar = table.get(c, r, offset);
+            match (bar, &mut found) {
                 (None, _) => missing = true,
                 (Some((kind, rest)), None) => found = Some((kind, rest, rest, f64::from(rest), 1)),
                 (Some((kind, rest)), Some(f)) => {
@@ -340,7 +335,7 @@ fn op_bar(
             // Lanes are by the bar's first end; a rotated operation seen
             // from its lower end (Δc < 0) holds it one lane down.
             let lane = if (k as isize + dc) < 0 { l - 1 } else { l };
-            lane_rests[lane] = table.get(c, r, offset).map_or(f32::NAN, |(_, rest)| rest);
+            lane_rests[lane] = bar.map_or(f32::NAN, |(_, rest)| rest);
         }
     }
     let Some((kind, lo, hi, sum, count)) = found else {
@@ -470,7 +465,9 @@ impl GridLayout {
         let parallel = positions.len() >= PARALLEL_PARTICLES;
         let mut tile_count = columns.div_ceil(LANES * TARGET_BLOCK);
         if parallel && tile_count > 1 {
-            tile_count = ((tile_count + TILE_MULTIPLE / 2) / TILE_MULTIPLE).max(1) * TILE_MULTIPLE;
+            // The nearest multiple of THREAD_SHARES (at least one): blocks
+            // of columns stay near TARGET_BLOCK.
+            tile_count = ((tile_count + THREAD_SHARES / 2) / THREAD_SHARES).max(1) * THREAD_SHARES;
         }
         let mut block = columns.div_ceil(LANES * tile_count);
         if implied && block % 2 == 1 {
