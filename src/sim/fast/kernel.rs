@@ -239,8 +239,34 @@ pub(crate) fn relax_pair<T: Real, const XPBD: bool>(
     beta: T,
     omega: T,
 ) -> T {
+    let (d, len) = bar_length(a, b);
+    correct_pair::<T, XPBD>(a, wa, b, wb, d, len, rest, mu, beta, omega)
+}
+
+/// The first half of [`relax_pair`]: the bar's vector d = x_b − x_a and its
+/// length ℓ = |d|.
+#[inline(always)]
+pub(crate) fn bar_length<T: Real>(a: &Point<T>, b: &Point<T>) -> (Point<T>, T) {
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    (d, (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+}
+
+/// The second half of [`relax_pair`]: the correction, from the bar's
+/// vector `d` and length `len` of [`bar_length`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn correct_pair<T: Real, const XPBD: bool>(
+    a: &mut Point<T>,
+    wa: T,
+    b: &mut Point<T>,
+    wb: T,
+    d: Point<T>,
+    len: T,
+    rest: T,
+    mu: &mut T,
+    beta: T,
+    omega: T,
+) -> T {
     let violation = len - rest;
     let target = if XPBD { violation + *mu } else { violation };
     let weight = wa + wb + beta;

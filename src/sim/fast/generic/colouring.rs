@@ -36,13 +36,27 @@ const MAX_COLOURS: u32 = 63;
 /// The bars in colour order, one column per field.
 #[derive(Clone, Debug, Default)]
 pub(super) struct BarColumns {
-    /// Ends, as indices into the particles the colouring is swept over.
+    /// Ends, as the offset of each end's row in the particles' `f32`s (4 ×
+    /// its index in the particles the colouring is swept over): the AVX2
+    /// sweep addresses a row with no shift. [`BarColumns::ends`] gives the
+    /// indices.
     pub(super) a: Vec<u32>,
     pub(super) b: Vec<u32>,
     /// Rest length L (m).
     pub(super) rest: Vec<f32>,
     /// [`crate::sim::BarKind::index`]: an index into [`Sweep::betas`].
     pub(super) kind: Vec<u8>,
+}
+
+/// `f32`s in a particle's row (x, y, z, w).
+const ROW: u32 = 4;
+
+impl BarColumns {
+    /// The particle indices of bar `i`'s ends.
+    #[inline(always)]
+    pub(super) fn ends(&self, i: usize) -> (usize, usize) {
+        ((self.a[i] / ROW) as usize, (self.b[i] / ROW) as usize)
+    }
 }
 
 /// Bars in colour order and where each colour ends.
@@ -54,12 +68,16 @@ pub(super) struct Colouring {
     /// Colours `0..independent` share no particle between their bars; the
     /// rest (at most one group) is relaxed in order.
     pub(super) independent: usize,
+    /// How many particles the ends index: every end is below this (the
+    /// AVX2 sweep loads and stores through it unchecked).
+    pub(super) particles: usize,
 }
 
 impl Colouring {
     /// Colours `bars`, whose ends (less `first`) index `particles`
     /// particles.
     fn new(bars: &[&Bar], first: u32, particles: usize) -> Self {
+        assert!(particles <= (u32::MAX / ROW) as usize, "{particles} particles: a row offset would not fit 32 bits");
         let mut used = vec![0u64; particles];
         let mut coloured: Vec<(u32, usize)> = Vec::with_capacity(bars.len());
         for (i, bar) in bars.iter().enumerate() {
@@ -72,13 +90,13 @@ impl Colouring {
             coloured.push((colour, i));
         }
         coloured.sort_by_key(|&(colour, i)| (colour, i));
-        let mut colouring = Colouring::default();
+        let mut colouring = Colouring { particles, ..Colouring::default() };
         for (n, &(colour, i)) in coloured.iter().enumerate() {
             if n > 0 && coloured[n - 1].0 != colour {
                 colouring.ends.push(n);
             }
-            colouring.bars.a.push(bars[i].a - first);
-            colouring.bars.b.push(bars[i].b - first);
+            colouring.bars.a.push(ROW * (bars[i].a - first));
+            colouring.bars.b.push(ROW * (bars[i].b - first));
             colouring.bars.rest.push(bars[i].rest_length);
             colouring.bars.kind.push(bars[i].kind.index() as u8);
         }

@@ -19,10 +19,19 @@
 //! latency: 6 ns a bar on the same host (`cargo bench --bench solver --
 //! mesh/`), where the octet is still bound by that chain and by its ~200
 //! instructions (loads, transposes, bounds checks).
+//!
+//! Two things shortened the octet further (tablecloth, one thread, a Zen 3:
+//! 3.2 → 2.4 ns a bar): its ends are addressed through row offsets checked
+//! once, when the colouring is built (a quarter of the octet's ~230
+//! instructions had been bounds checks and index shifts), and the loop
+//! loads the next octet's ends before it finishes the last one, so those
+//! loads wait on nothing ([`avx2`]).
 
 use super::Particle;
 use super::colouring::{BarColumns, Colouring};
-use crate::sim::fast::kernel::{LANES, excess, relax_pair};
+#[cfg(test)]
+use crate::sim::fast::kernel::LANES;
+use crate::sim::fast::kernel::{excess, relax_pair};
 use crate::sim::fast::simd::{self, SimdLevel};
 
 /// What a pass needs, by bar kind (0 structural, 1 bend, 2 shear).
@@ -44,46 +53,25 @@ pub(super) fn relax_pass(
     sweep: &Sweep,
     lanes: bool,
 ) -> f32 {
+    assert!(particles.len() >= colouring.particles, "the colouring's ends index {} particles", colouring.particles);
     #[cfg(target_arch = "x86_64")]
     if lanes && simd::level() >= SimdLevel::Avx2 {
         // SAFETY: `simd::level` is AVX2 or above only when the CPU reports
         // AVX2 and FMA (`SimdLevel::best_available`), the features
-        // `avx2::relax_pass` is compiled for.
+        // `avx2::relax_pass` is compiled for; the particles are as many as
+        // the colouring's ends index (checked above).
         return unsafe { avx2::relax_pass(particles, colouring, mu, sweep) };
     }
     let _ = (lanes, SimdLevel::Avx2);
-    if sweep.betas.iter().any(|&b| b > 0.0) {
-        relax_colours::<true>(particles, colouring, mu, sweep, |_, _, _| None)
-    } else {
-        relax_colours::<false>(particles, colouring, mu, sweep, |_, _, _| None)
-    }
-}
-
-/// Colour by colour: `octet(particles, first, mu)` projects bars
-/// `first..first + 8` of an independent colour if it can (`Some(worst)`);
-/// the rest go one at a time.
-#[inline(always)]
-fn relax_colours<const XPBD: bool>(
-    particles: &mut [Particle],
-    colouring: &Colouring,
-    mu: &mut [f32],
-    sweep: &Sweep,
-    mut octet: impl FnMut(&mut [Particle], usize, &mut [f32]) -> Option<f32>,
-) -> f32 {
+    let xpbd = sweep.betas.iter().any(|&b| b > 0.0);
     let mut worst = f32::NEG_INFINITY;
-    for c in 0..colouring.ends.len() {
-        let range = colouring.colour(c);
-        let mut next = range.start;
-        if c < colouring.independent {
-            while next + LANES <= range.end {
-                let Some(w) = octet(particles, next, mu) else { break };
-                worst = worst.max(w);
-                next += LANES;
-            }
-        }
-        for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
-            worst = worst.max(relax_one::<XPBD>(particles, &colouring.bars, i, mu, sweep));
-        }
+    for (i, mu) in mu.iter_mut().enumerate() {
+        let w = if xpbd {
+            relax_one::<true>(particles, &colouring.bars, i, mu, sweep)
+        } else {
+            relax_one::<false>(particles, &colouring.bars, i, mu, sweep)
+        };
+        worst = worst.max(w);
     }
     worst
 }
@@ -97,7 +85,7 @@ fn relax_one<const XPBD: bool>(
     mu: &mut f32,
     sweep: &Sweep,
 ) -> f32 {
-    let (ia, ib) = (bars.a[i] as usize, bars.b[i] as usize);
+    let (ia, ib) = bars.ends(i);
     let (mut a, mut b) = (particles[ia], particles[ib]);
     let (wa, wb) = (a.weight, b.weight);
     let rest = bars.rest[i];
@@ -108,47 +96,134 @@ fn relax_one<const XPBD: bool>(
     if sweep.tolerance > 0.0 { excess(v, wa, wb, sweep.tolerance * rest) } else { f32::NEG_INFINITY }
 }
 
-/// The AVX2 octet. The compiler does not find the transposes in a lane loop
-/// (it spilled every lane to the stack and ran no faster than one bar at a
-/// time), and split the kernel on [`F32x8`] here into 4-wide halves; so the
-/// octet runs the shared kernel on [`Avx`](crate::sim::fast::avx::Avx), eight lanes in one AVX
-/// register, with `std::arch` loads and transposes.
+/// The AVX2 octets, software-pipelined: the loop starts octet k + 1 (loads
+/// its ends, transposes them, takes the bars' lengths) before it finishes
+/// octet k (the division, the moves, the stores). The compiler keeps the
+/// early loads and sinks the rest back next to its use, which is what pays
+/// (the loads' latency hides behind the last octet's arithmetic; forcing the
+/// square root early too spilled registers and was slower). Octets of one
+/// colour share no particle, so starting the next before the last is stored
+/// reads what the one-at-a-time order reads; a colour's last octet is
+/// finished before the next colour starts.
+///
+/// The ends are loaded and stored through raw pointers: the indices were
+/// checked once, when the colouring was built (each is below
+/// [`Colouring::particles`]), and [`super::relax_pass`] checks that the
+/// particles are that many; the bounds checks of 32 indexed loads and stores
+/// an octet were a tenth of the pass (measured in the README).
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx2 {
-    use super::{BarColumns, Colouring, Particle, Sweep, relax_colours};
-    use crate::sim::fast::avx::{Avx, gather_rows};
-    use crate::sim::fast::kernel::{LANES, Point, Real, excess, relax_pair};
-    use crate::sim::fast::rows::Rows;
+    use std::arch::x86_64::{
+        __m128, __m256, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_set_m128,
+        _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+    };
+
+    use super::{BarColumns, Colouring, Particle, Sweep};
+    use crate::sim::fast::avx::Avx;
+    use crate::sim::fast::kernel::{LANES, Point, Real, bar_length, correct_pair, excess};
 
     /// [`super::relax_pass`] with eight bars at a time.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 and FMA, and `particles.len() >= colouring.particles`.
     #[target_feature(enable = "avx2,fma")]
-    pub(super) fn relax_pass(particles: &mut [Particle], colouring: &Colouring, mu: &mut [f32], sweep: &Sweep) -> f32 {
-        let bars = &colouring.bars;
-        if sweep.betas.iter().any(|&b| b > 0.0) {
-            relax_colours::<true>(particles, colouring, mu, sweep, |p, first, mu| {
-                Some(relax_octet::<true>(p, bars, first, mu, sweep))
-            })
-        } else {
-            relax_colours::<false>(particles, colouring, mu, sweep, |p, first, mu| {
-                Some(relax_octet::<false>(p, bars, first, mu, sweep))
-            })
-        }
-    }
-
-    /// Projects bars `first..first + 8` (one colour: no shared particle).
-    #[target_feature(enable = "avx2,fma")]
-    fn relax_octet<const XPBD: bool>(
+    pub(super) unsafe fn relax_pass(
         particles: &mut [Particle],
-        bars: &BarColumns,
-        first: usize,
+        colouring: &Colouring,
         mu: &mut [f32],
         sweep: &Sweep,
     ) -> f32 {
-        let ia: [usize; LANES] = std::array::from_fn(|l| bars.a[first + l] as usize);
-        let ib: [usize; LANES] = std::array::from_fn(|l| bars.b[first + l] as usize);
-        let (mut a, wa) = gather(particles, &ia);
-        let (mut b, wb) = gather(particles, &ib);
+        // SAFETY: the caller's promise, passed on.
+        unsafe {
+            if sweep.betas.iter().any(|&b| b > 0.0) {
+                relax_colours::<true>(particles, colouring, mu, sweep)
+            } else {
+                relax_colours::<false>(particles, colouring, mu, sweep)
+            }
+        }
+    }
+
+    /// Colour by colour, octets pipelined, then the colour's last bars one at
+    /// a time ([`super::relax_one`]).
+    ///
+    /// # Safety
+    /// As [`relax_pass`].
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn relax_colours<const XPBD: bool>(
+        particles: &mut [Particle],
+        colouring: &Colouring,
+        mu: &mut [f32],
+        sweep: &Sweep,
+    ) -> f32 {
+        let bars = &colouring.bars;
+        let rows = particles.as_mut_ptr().cast::<f32>();
+        let mut worst = f32::NEG_INFINITY;
+        for c in 0..colouring.ends.len() {
+            let range = colouring.colour(c);
+            let mut next = range.start;
+            if c < colouring.independent && next + LANES <= range.end {
+                // SAFETY (each `start` and `finish`): `rows` holds
+                // `colouring.particles` rows (the caller's promise), and
+                // every end of the colouring is below that.
+                let mut pending = unsafe { start(rows, bars, next) };
+                next += LANES;
+                while next + LANES <= range.end {
+                    let started = unsafe { start(rows, bars, next) };
+                    worst = worst.max(unsafe { finish::<XPBD>(rows, bars, pending, mu, sweep) });
+                    pending = started;
+                    next += LANES;
+                }
+                worst = worst.max(unsafe { finish::<XPBD>(rows, bars, pending, mu, sweep) });
+            }
+            for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
+                worst = worst.max(super::relax_one::<XPBD>(particles, bars, i, mu, sweep));
+            }
+        }
+        worst
+    }
+
+    /// An octet started: its first bar, its ends and weights in lanes, and
+    /// the bars' vectors d and lengths ℓ.
+    #[derive(Clone, Copy)]
+    struct Started {
+        first: usize,
+        a: Point<Avx>,
+        wa: Avx,
+        b: Point<Avx>,
+        wb: Avx,
+        d: Point<Avx>,
+        len: Avx,
+    }
+
+    /// Loads bars `first..first + 8`'s ends and takes their lengths.
+    ///
+    /// # Safety
+    /// AVX2 is available; every end of these bars indexes a row of `rows`.
+    #[inline(always)]
+    unsafe fn start(rows: *const f32, bars: &BarColumns, first: usize) -> Started {
+        let (ia, ib) = ends(bars, first);
+        // SAFETY: the caller's promise.
+        let ((a, wa), (b, wb)) = unsafe { (gather(rows, ia), gather(rows, ib)) };
+        let (d, len) = bar_length(&a, &b);
+        Started { first, a, wa, b, wb, d, len }
+    }
+
+    /// Projects a started octet and stores its ends; returns its largest
+    /// excess (as [`super::relax_one`]).
+    ///
+    /// # Safety
+    /// As [`start`], and no particle was stored between the octet's start
+    /// and this call.
+    #[inline(always)]
+    unsafe fn finish<const XPBD: bool>(
+        rows: *mut f32,
+        bars: &BarColumns,
+        started: Started,
+        mu: &mut [f32],
+        sweep: &Sweep,
+    ) -> f32 {
+        let Started { first, mut a, wa, mut b, wb, d, len } = started;
         let rest = Avx::load(&bars.rest[first..]);
         // Not compliant: every β is 0.
         let beta = if XPBD {
@@ -156,13 +231,18 @@ mod avx2 {
         } else {
             Avx::splat(0.0)
         };
-        let mut mu8 = Avx::load(&mu[first..]);
-        let v = relax_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, rest, &mut mu8, beta, Avx::splat(sweep.omega));
+        let mut mu8 = if XPBD { Avx::load(&mu[first..]) } else { Avx::splat(0.0) };
+        let omega = Avx::splat(sweep.omega);
+        let v = correct_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, d, len, rest, &mut mu8, beta, omega);
         if XPBD {
             mu[first..first + LANES].copy_from_slice(&mu8.lanes());
         }
-        scatter(particles, &ia, a, wa);
-        scatter(particles, &ib, b, wb);
+        let (ia, ib) = ends(bars, first);
+        // SAFETY: the caller's promise.
+        unsafe {
+            scatter(rows, ia, a, wa);
+            scatter(rows, ib, b, wb);
+        }
         if sweep.tolerance > 0.0 {
             excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest).lanes().into_iter().fold(f32::NEG_INFINITY, Real::max)
         } else {
@@ -170,19 +250,68 @@ mod avx2 {
         }
     }
 
-    /// Eight particles (x y z w each) transposed into lanes: positions and
-    /// weights.
+    /// The ends of bars `first..first + 8`.
     #[inline(always)]
-    fn gather(particles: &[Particle], index: &[usize; LANES]) -> (Point<Avx>, Avx) {
-        let [x, y, z, w] = gather_rows(bytemuck::cast_slice(particles), index);
-        ([x, y, z], w)
+    fn ends(bars: &BarColumns, first: usize) -> (&[u32; LANES], &[u32; LANES]) {
+        (eight(&bars.a, first), eight(&bars.b, first))
+    }
+
+    /// `column[first..first + 8]`, one bounds check.
+    #[inline(always)]
+    fn eight(column: &[u32], first: usize) -> &[u32; LANES] {
+        column[first..first + LANES].try_into().unwrap_or_else(|_| unreachable!("a slice of eight"))
+    }
+
+    /// Eight particles (x y z w each, one 16-byte load) transposed into
+    /// lanes: positions and weights.
+    ///
+    /// # Safety
+    /// AVX2 is available; every index is a row of `rows`.
+    #[inline(always)]
+    unsafe fn gather(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
+        // SAFETY: the caller's promise (each offset is a row's first f32).
+        let row = |l: usize| -> __m128 { unsafe { _mm_loadu_ps(rows.add(index[l] as usize)) } };
+        // SAFETY: AVX2 is available (the caller's promise).
+        unsafe {
+            // Register l holds rows l and l + 4 (one per 128-bit half).
+            let r0 = _mm256_set_m128(row(4), row(0));
+            let r1 = _mm256_set_m128(row(5), row(1));
+            let r2 = _mm256_set_m128(row(6), row(2));
+            let r3 = _mm256_set_m128(row(7), row(3));
+            // Per half: t0 = x0 x1 y0 y1, t1 = z0 z1 w0 w1, t2 = x2 x3 y2 y3, t3 = z2 z3 w2 w3.
+            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+            // 0x44 takes elements 0, 1 of each source, 0xEE elements 2, 3.
+            let x = Avx(_mm256_shuffle_ps::<0x44>(t0, t2));
+            let y = Avx(_mm256_shuffle_ps::<0xEE>(t0, t2));
+            let z = Avx(_mm256_shuffle_ps::<0x44>(t1, t3));
+            let w = Avx(_mm256_shuffle_ps::<0xEE>(t1, t3));
+            ([x, y, z], w)
+        }
     }
 
     /// The inverse of [`gather`]: particle `index[l]` takes lane l.
+    ///
+    /// # Safety
+    /// As [`gather`].
     #[inline(always)]
-    fn scatter(particles: &mut [Particle], index: &[usize; LANES], x: Point<Avx>, w: Avx) {
-        for (row, &i) in Avx::to_rows([x[0], x[1], x[2], w]).into_iter().zip(index) {
-            particles[i] = bytemuck::cast(row);
+    unsafe fn scatter(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
+        // SAFETY: AVX2 is available and every index is a row of `rows` (the
+        // caller's promise).
+        unsafe {
+            // Per half: t0 = x0 y0 x1 y1, t1 = x2 y2 x3 y3, t2 = z0 w0 z1 w1, t3 = z2 w2 z3 w3.
+            let (t0, t1) = (_mm256_unpacklo_ps(x.0, y.0), _mm256_unpackhi_ps(x.0, y.0));
+            let (t2, t3) = (_mm256_unpacklo_ps(z.0, w.0), _mm256_unpackhi_ps(z.0, w.0));
+            let pairs: [__m256; 4] = [
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+                _mm256_shuffle_ps::<0xEE>(t0, t2),
+                _mm256_shuffle_ps::<0x44>(t1, t3),
+                _mm256_shuffle_ps::<0xEE>(t1, t3),
+            ];
+            for (l, pair) in pairs.into_iter().enumerate() {
+                _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
+                _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
+            }
         }
     }
 }
@@ -253,6 +382,20 @@ mod tests {
             let in_lanes: usize = (0..colouring.independent).map(|c| colouring.colour(c).len() / LANES * LANES).sum();
             assert!(in_lanes > bars.len() * 9 / 10, "{in_lanes} of {} bars in lanes", bars.len());
         }
+    }
+
+    #[test]
+    #[should_panic(expected = "the colouring's ends index 1600 particles")]
+    fn a_colouring_swept_over_too_few_particles_is_refused() {
+        // The AVX2 sweep loads and stores without bounds checks, trusting
+        // that the particles are as many as the colouring's ends index: a
+        // shorter slice must stop at the check, not be read past its end.
+        let (positions, bars) = crumpled_sheet(40);
+        let weights = vec![1.0; positions.len()];
+        let mut layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
+        let sweep = Sweep { betas: [0.0; 3], omega: 1.0, tolerance: 0.0 };
+        let group = &mut layout.bars.blocks[0];
+        relax_pass(&mut layout.particles[..1599], &group.colouring, &mut group.multipliers, &sweep, true);
     }
 
     #[test]
