@@ -157,12 +157,14 @@ mod avx2 {
         sweep: &Sweep,
     ) -> f32 {
         let bars = &colouring.bars;
-        let rows = particles.as_mut_ptr().cast::<f32>();
         let mut worst = f32::NEG_INFINITY;
         for c in 0..colouring.ends.len() {
             let range = colouring.colour(c);
             let mut next = range.start;
             if c < colouring.independent && next + LANES <= range.end {
+                // Taken anew for each colour: the last colour's bars after
+                // its octets went through `particles` itself.
+                let rows = particles.as_mut_ptr().cast::<f32>();
                 // SAFETY (each `start` and `finish`): `rows` holds
                 // `colouring.particles` rows (the caller's promise), and
                 // every end of the colouring is below that.
