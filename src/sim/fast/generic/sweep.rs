@@ -115,8 +115,9 @@ fn relax_one<const XPBD: bool>(
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m128, __m256, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_set_m128,
-        _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+        __m128, __m256, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
+        _mm256_extractf128_ps, _mm256_permutevar8x32_ps, _mm256_set_m128, _mm256_setr_ps, _mm256_shuffle_ps,
+        _mm256_unpackhi_ps, _mm256_unpacklo_ps,
     };
 
     use super::{BarColumns, Colouring, Particle, Sweep};
@@ -228,11 +229,8 @@ mod avx2 {
         let Started { first, mut a, wa, mut b, wb, d, len } = started;
         let rest = Avx::load(&bars.rest[first..]);
         // Not compliant: every β is 0.
-        let beta = if XPBD {
-            Avx::from(std::array::from_fn(|l| sweep.betas[usize::from(bars.kind[first + l])]))
-        } else {
-            Avx::splat(0.0)
-        };
+        // SAFETY: AVX2 is available (the caller's promise).
+        let beta = if XPBD { unsafe { betas(&bars.kind, first, sweep) } } else { Avx::splat(0.0) };
         let mut mu8 = if XPBD { Avx::load(&mu[first..]) } else { Avx::splat(0.0) };
         let omega = Avx::splat(sweep.omega);
         let v = correct_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, d, len, rest, &mut mu8, beta, omega);
@@ -249,6 +247,26 @@ mod avx2 {
             excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest).lanes().into_iter().fold(f32::NEG_INFINITY, Real::max)
         } else {
             f32::NEG_INFINITY
+        }
+    }
+
+    /// β of bars `first..first + 8`, by kind: their eight kind bytes,
+    /// widened to lanes, pick from the kinds' β (`vpermps`) where eight
+    /// checked table lookups went through memory before.
+    ///
+    /// # Safety
+    /// AVX2 is available.
+    #[inline(always)]
+    unsafe fn betas(kind: &[u8], first: usize, sweep: &Sweep) -> Avx {
+        let kinds: [u8; LANES] = kind[first..first + LANES].try_into().unwrap_or_else(|_| unreachable!("eight"));
+        let [b0, b1, b2] = sweep.betas;
+        // SAFETY: AVX2 is available (the caller's promise). A kind is below
+        // `BarKind::COUNT` = 3; `vpermps` reads only the low three bits of
+        // each index, so no lane can pick outside the register.
+        unsafe {
+            let table = _mm256_setr_ps(b0, b1, b2, 0.0, 0.0, 0.0, 0.0, 0.0);
+            let index = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(kinds)));
+            Avx(_mm256_permutevar8x32_ps(table, index))
         }
     }
 
