@@ -55,13 +55,20 @@ impl Avx {
 #[inline(always)]
 pub(crate) fn gather_rows(rows: &[[f32; 4]], index: &[usize; LANES]) -> [Avx; 4] {
     let p = |l: usize| -> __m128 { bytemuck::cast(rows[index[l]]) };
+    transpose_rows([p(0), p(1), p(2), p(3), p(4), p(5), p(6), p(7)])
+}
+
+/// Eight rows (x y z w each, row l in `rows[l]`) transposed into lanes:
+/// [x, y, z, w]. Same contract as [`Avx`].
+#[inline(always)]
+pub(crate) fn transpose_rows(p: [__m128; LANES]) -> [Avx; 4] {
     // SAFETY: by the type's contract, called only where AVX2 is enabled.
     unsafe {
         // Row l holds rows l and l + 4 (one per 128-bit half).
-        let r0 = _mm256_set_m128(p(4), p(0));
-        let r1 = _mm256_set_m128(p(5), p(1));
-        let r2 = _mm256_set_m128(p(6), p(2));
-        let r3 = _mm256_set_m128(p(7), p(3));
+        let r0 = _mm256_set_m128(p[4], p[0]);
+        let r1 = _mm256_set_m128(p[5], p[1]);
+        let r2 = _mm256_set_m128(p[6], p[2]);
+        let r3 = _mm256_set_m128(p[7], p[3]);
         // Per half: t0 = x0 x1 y0 y1, t1 = z0 z1 w0 w1, t2 = x2 x3 y2 y3, t3 = z2 z3 w2 w3.
         let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
         let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
@@ -106,7 +113,7 @@ impl Rows for Avx {
 /// registers, register l holding row l in its low half and row l + 4 in its
 /// high half. Same contract as [`Avx`].
 #[inline(always)]
-fn untranspose_rows([x, y, z, w]: [Avx; 4]) -> [__m256; 4] {
+pub(crate) fn untranspose_rows([x, y, z, w]: [Avx; 4]) -> [__m256; 4] {
     // SAFETY: by the type's contract, called only where AVX2 is enabled.
     unsafe {
         // Per half: t0 = x0 y0 x1 y1, t1 = x2 y2 x3 y3, t2 = z0 w0 z1 w1, t3 = z2 w2 z3 w3.

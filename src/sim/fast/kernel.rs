@@ -304,8 +304,7 @@ pub(crate) fn relax_pair_shared<T: Real, const XPBD: bool>(
     mu: &mut T,
     beta: T,
 ) -> T {
-    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let (d, len) = bar_length(a, b);
     let violation = len - rest;
     let target = if XPBD { violation + *mu } else { violation };
     let c = target / len.max(T::splat(TINY_LENGTH));

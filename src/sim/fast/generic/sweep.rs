@@ -115,13 +115,12 @@ fn relax_one<const XPBD: bool>(
 #[allow(unsafe_code)]
 mod avx2 {
     use std::arch::x86_64::{
-        __m128, __m256, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
-        _mm256_extractf128_ps, _mm256_permutevar8x32_ps, _mm256_set_m128, _mm256_setr_ps, _mm256_shuffle_ps,
-        _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+        __m128, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
+        _mm256_extractf128_ps, _mm256_permutevar8x32_ps, _mm256_setr_ps,
     };
 
     use super::{BarColumns, Colouring, Particle, Sweep};
-    use crate::sim::fast::avx::Avx;
+    use crate::sim::fast::avx::{Avx, transpose_rows, untranspose_rows};
     use crate::sim::fast::kernel::{LANES, Point, Real, bar_length, correct_pair, excess};
 
     /// [`super::relax_pass`] with eight bars at a time.
@@ -291,23 +290,8 @@ mod avx2 {
     unsafe fn gather(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
         // SAFETY: the caller's promise (each offset is a row's first f32).
         let row = |l: usize| -> __m128 { unsafe { _mm_loadu_ps(rows.add(index[l] as usize)) } };
-        // SAFETY: AVX2 is available (the caller's promise).
-        unsafe {
-            // Register l holds rows l and l + 4 (one per 128-bit half).
-            let r0 = _mm256_set_m128(row(4), row(0));
-            let r1 = _mm256_set_m128(row(5), row(1));
-            let r2 = _mm256_set_m128(row(6), row(2));
-            let r3 = _mm256_set_m128(row(7), row(3));
-            // Per half: t0 = x0 x1 y0 y1, t1 = z0 z1 w0 w1, t2 = x2 x3 y2 y3, t3 = z2 z3 w2 w3.
-            let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
-            let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
-            // 0x44 takes elements 0, 1 of each source, 0xEE elements 2, 3.
-            let x = Avx(_mm256_shuffle_ps::<0x44>(t0, t2));
-            let y = Avx(_mm256_shuffle_ps::<0xEE>(t0, t2));
-            let z = Avx(_mm256_shuffle_ps::<0x44>(t1, t3));
-            let w = Avx(_mm256_shuffle_ps::<0xEE>(t1, t3));
-            ([x, y, z], w)
-        }
+        let [x, y, z, w] = transpose_rows([row(0), row(1), row(2), row(3), row(4), row(5), row(6), row(7)]);
+        ([x, y, z], w)
     }
 
     /// The inverse of [`gather`]: particle `index[l]` takes lane l.
@@ -316,18 +300,11 @@ mod avx2 {
     /// As [`gather`].
     #[inline(always)]
     unsafe fn scatter(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
+        // Register l holds row l in its low half and row l + 4 in its high.
+        let pairs = untranspose_rows([x, y, z, w]);
         // SAFETY: AVX2 is available and every index is a row of `rows` (the
         // caller's promise).
         unsafe {
-            // Per half: t0 = x0 y0 x1 y1, t1 = x2 y2 x3 y3, t2 = z0 w0 z1 w1, t3 = z2 w2 z3 w3.
-            let (t0, t1) = (_mm256_unpacklo_ps(x.0, y.0), _mm256_unpackhi_ps(x.0, y.0));
-            let (t2, t3) = (_mm256_unpacklo_ps(z.0, w.0), _mm256_unpackhi_ps(z.0, w.0));
-            let pairs: [__m256; 4] = [
-                _mm256_shuffle_ps::<0x44>(t0, t2),
-                _mm256_shuffle_ps::<0xEE>(t0, t2),
-                _mm256_shuffle_ps::<0x44>(t1, t3),
-                _mm256_shuffle_ps::<0xEE>(t1, t3),
-            ];
             for (l, pair) in pairs.into_iter().enumerate() {
                 _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
                 _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
