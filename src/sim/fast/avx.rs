@@ -64,11 +64,22 @@ pub(crate) fn gather_rows(rows: &[[f32; 4]], index: &[usize; LANES]) -> [Avx; 4]
 pub(crate) fn transpose_rows(p: [__m128; LANES]) -> [Avx; 4] {
     // SAFETY: by the type's contract, called only where AVX2 is enabled.
     unsafe {
-        // Row l holds rows l and l + 4 (one per 128-bit half).
-        let r0 = _mm256_set_m128(p[4], p[0]);
-        let r1 = _mm256_set_m128(p[5], p[1]);
-        let r2 = _mm256_set_m128(p[6], p[2]);
-        let r3 = _mm256_set_m128(p[7], p[3]);
+        transpose_pairs([
+            _mm256_set_m128(p[4], p[0]),
+            _mm256_set_m128(p[5], p[1]),
+            _mm256_set_m128(p[6], p[2]),
+            _mm256_set_m128(p[7], p[3]),
+        ])
+    }
+}
+
+/// Eight rows in four registers, register l holding row l in its low half
+/// and row l + 4 in its high half (the layout of [`untranspose_rows`]),
+/// transposed into lanes: [x, y, z, w]. Same contract as [`Avx`].
+#[inline(always)]
+pub(crate) fn transpose_pairs([r0, r1, r2, r3]: [__m256; 4]) -> [Avx; 4] {
+    // SAFETY: by the type's contract, called only where AVX2 is enabled.
+    unsafe {
         // Per half: t0 = x0 x1 y0 y1, t1 = z0 z1 w0 w1, t2 = x2 x3 y2 y3, t3 = z2 z3 w2 w3.
         let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
         let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));

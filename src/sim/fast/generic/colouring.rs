@@ -1,8 +1,12 @@
 //! The bars of the coloured layout: greedy colours, in blocks of particles.
 //!
-//! **Colours.** Every bar gets the smallest colour not yet used by a bar at
-//! either of its ends, in creation order; bars are stored colour by colour
-//! (creation order within a colour). Bars of one colour share no particle.
+//! **Colours.** The bars are grouped into units of one bar or two
+//! ([`pairs`]); every unit gets the smallest colour not yet used by a unit
+//! at any of its particles, in unit order. Bars are stored colour by
+//! colour, and within a colour as octets of four paired units (lane l the
+//! first bar, lane l + 4 the second), those paired at both ends first, then
+//! those paired at end a, then the other bars. Bars of one colour share no
+//! particle.
 //!
 //! **Blocks.** A mesh of more than [`BLOCK_PARTICLES`] particles is cut into
 //! blocks of consecutive particle indices, each at most that many (256 KiB
@@ -17,11 +21,13 @@
 //! 320 sheet. When the scene's order puts more than 1 bar in 20 on the
 //! boundary (a mesh whose vertices jump around, as
 //! subdivision leaves them), the layout renumbers the particles in
-//! [`breadth_first_order`] and keeps that if its boundary is smaller.
+//! [`super::order::breadth_first_order`] and keeps that if its boundary is
+//! smaller. Blocks start at an even index, on a dimer.
 
 use rayon::prelude::*;
 
 use super::Particle;
+use super::pairs::{self, Class, Oriented, Unit};
 use super::sweep::{Sweep, relax_pass};
 use crate::sim::fast::THREAD_SHARES;
 use crate::sim::mesh::Bar;
@@ -65,6 +71,12 @@ pub(super) struct Colouring {
     pub(super) bars: BarColumns,
     /// Colour c is `bars[ends[c − 1]..ends[c]]` (`ends[−1]` = 0).
     pub(super) ends: Vec<usize>,
+    /// Where colour c's octets of [`Class::Both`] units end, and then its
+    /// octets of [`Class::AEnd`] units: `bars[colour start..paired[c][0]]`
+    /// are octets whose lanes l and l + 4 hold bars 2p–2q and 2p+1–2q+1,
+    /// `..paired[c][1]` octets whose lanes l and l + 4 start at 2p and
+    /// 2p + 1; the rest of the colour is bars in any lane.
+    pub(super) paired: Vec<[usize; 2]>,
     /// Colours `0..independent` share no particle between their bars; the
     /// rest (at most one group) is relaxed in order.
     pub(super) independent: usize,
@@ -75,37 +87,70 @@ pub(super) struct Colouring {
 
 impl Colouring {
     /// Colours `bars`, whose ends (less `first`) index `particles`
-    /// particles.
+    /// particles: their [`pairs::units`], each the smallest colour that no
+    /// unit at any of its particles has (in unit order), then within a
+    /// colour the units of each [`Class`] in turn, four to an octet.
     fn new(bars: &[&Bar], first: u32, particles: usize) -> Self {
         assert!(particles <= (u32::MAX / ROW) as usize, "{particles} particles: a row offset would not fit 32 bits");
+        let ends: Vec<(u32, u32)> = bars.iter().map(|b| (b.a - first, b.b - first)).collect();
+        let units = pairs::units(&ends, particles);
         let mut used = vec![0u64; particles];
-        let mut coloured: Vec<(u32, usize)> = Vec::with_capacity(bars.len());
-        for (i, bar) in bars.iter().enumerate() {
-            let (a, b) = ((bar.a - first) as usize, (bar.b - first) as usize);
-            let colour = (!(used[a] | used[b])).trailing_zeros().min(MAX_COLOURS);
+        let mut coloured: Vec<(u32, Class, usize)> = Vec::with_capacity(units.len());
+        for (k, unit) in units.iter().enumerate() {
+            let touched = unit.bars().flat_map(|o| [o.a as usize, o.b as usize]);
+            let taken = touched.clone().fold(0, |m, i| m | used[i]);
+            let colour = (!taken).trailing_zeros().min(MAX_COLOURS);
             if colour < MAX_COLOURS {
-                used[a] |= 1 << colour;
-                used[b] |= 1 << colour;
+                touched.for_each(|i| used[i] |= 1 << colour);
             }
-            coloured.push((colour, i));
+            coloured.push((colour, unit.class, k));
         }
-        coloured.sort_by_key(|&(colour, i)| (colour, i));
+        coloured.sort_unstable();
         let mut colouring = Colouring { particles, ..Colouring::default() };
-        for (n, &(colour, i)) in coloured.iter().enumerate() {
-            if n > 0 && coloured[n - 1].0 != colour {
-                colouring.ends.push(n);
+        let push = |columns: &mut BarColumns, o: Oriented| {
+            columns.a.push(ROW * o.a);
+            columns.b.push(ROW * o.b);
+            columns.rest.push(bars[o.bar].rest_length);
+            columns.kind.push(bars[o.bar].kind.index() as u8);
+        };
+        for colour in coloured.chunk_by(|x, y| x.0 == y.0) {
+            let of = |class| colour.iter().filter(move |u| u.1 == class).map(|u| units[u.2]);
+            let mut paired = [colouring.bars.a.len(); 2];
+            let mut singles: Vec<Oriented> = Vec::new();
+            if colour[0].0 < MAX_COLOURS {
+                // Four units an octet: lane l holds the first bars, lane
+                // l + 4 the second. A class's last units (fewer than four)
+                // go on in the next class, and then one bar at a time.
+                let mut carried: Vec<Unit> = Vec::new();
+                for (k, class) in [Class::Both, Class::AEnd].into_iter().enumerate() {
+                    carried.extend(of(class));
+                    let whole = carried.len() / 4 * 4;
+                    for octet in carried[..whole].chunks_exact(4) {
+                        for unit in octet {
+                            push(&mut colouring.bars, unit.first);
+                        }
+                        for unit in octet {
+                            push(&mut colouring.bars, unit.second.unwrap_or_else(|| unreachable!("a pair")));
+                        }
+                    }
+                    paired[k] = colouring.bars.a.len();
+                    carried.drain(..whole);
+                }
+                singles.extend(carried.iter().flat_map(Unit::bars));
+                singles.extend(of(Class::Single).flat_map(|u| u.bars()));
+            } else {
+                // The last group (no free colour) goes one bar at a time.
+                singles.extend(colour.iter().flat_map(|u| units[u.2].bars()));
             }
-            colouring.bars.a.push(ROW * (bars[i].a - first));
-            colouring.bars.b.push(ROW * (bars[i].b - first));
-            colouring.bars.rest.push(bars[i].rest_length);
-            colouring.bars.kind.push(bars[i].kind.index() as u8);
-        }
-        if !coloured.is_empty() {
-            colouring.ends.push(coloured.len());
+            for o in singles {
+                push(&mut colouring.bars, o);
+            }
+            colouring.paired.push(paired);
+            colouring.ends.push(colouring.bars.a.len());
         }
         // Greedy colours are 0, 1, … without gaps, then MAX_COLOURS.
         colouring.independent =
-            coloured.iter().filter(|&&(c, _)| c < MAX_COLOURS).map(|&(c, _)| c as usize + 1).max().unwrap_or(0);
+            coloured.iter().filter(|u| u.0 < MAX_COLOURS).map(|u| u.0 as usize + 1).max().unwrap_or(0);
         colouring
     }
 
@@ -150,7 +195,8 @@ impl BlockedBars {
     pub(super) fn new(bars: &[Bar], particles: usize) -> Self {
         let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
         let count = if count > 1 { count.next_multiple_of(THREAD_SHARES) } else { 1 };
-        let block_size = particles.div_ceil(count).max(1);
+        // Even: a block starts on a dimer (two rows of one 32-byte load).
+        let block_size = particles.div_ceil(count).next_multiple_of(2).max(2);
         let mut inside: Vec<Vec<&Bar>> = vec![Vec::new(); count];
         let mut boundary = Vec::new();
         for bar in bars {
@@ -213,58 +259,4 @@ impl BlockedBars {
         let boundary = relax_pass(particles, &self.boundary.colouring, &mut self.boundary.multipliers, sweep, true);
         inside.max(boundary)
     }
-}
-
-/// A breadth-first (Cuthill–McKee) order of the particles over the bars:
-/// each connected piece from a particle of least degree, neighbours in order
-/// of degree, then index. Particles a bar apart get nearby indices, so blocks
-/// of consecutive indices are bands of the mesh with few bars between them.
-/// `order[k]` is the particle placed k-th.
-pub(super) fn breadth_first_order(particles: usize, bars: &[Bar]) -> Vec<u32> {
-    let mut degree = vec![0u32; particles];
-    for bar in bars {
-        degree[bar.a as usize] += 1;
-        degree[bar.b as usize] += 1;
-    }
-    // Neighbour lists in one array: particle i's are first[i]..first[i + 1].
-    let mut first = vec![0usize; particles + 1];
-    for i in 0..particles {
-        first[i + 1] = first[i] + degree[i] as usize;
-    }
-    let mut fill = first.clone();
-    let mut neighbours = vec![0u32; first[particles]];
-    for bar in bars {
-        for (from, to) in [(bar.a, bar.b), (bar.b, bar.a)] {
-            neighbours[fill[from as usize]] = to;
-            fill[from as usize] += 1;
-        }
-    }
-    let by_degree = |&i: &u32| (degree[i as usize], i);
-    for i in 0..particles {
-        neighbours[first[i]..first[i + 1]].sort_unstable_by_key(by_degree);
-    }
-    let mut roots: Vec<u32> = (0..particles as u32).collect();
-    roots.sort_unstable_by_key(by_degree);
-    let mut placed = vec![false; particles];
-    let mut order = Vec::with_capacity(particles);
-    for root in roots {
-        if placed[root as usize] {
-            continue;
-        }
-        placed[root as usize] = true;
-        let mut next = order.len();
-        order.push(root);
-        // `order` is the queue: everything after `next` waits its turn.
-        while next < order.len() {
-            let i = order[next] as usize;
-            next += 1;
-            for &j in &neighbours[first[i]..first[i + 1]] {
-                if !placed[j as usize] {
-                    placed[j as usize] = true;
-                    order.push(j);
-                }
-            }
-        }
-    }
-    order
 }

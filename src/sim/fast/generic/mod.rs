@@ -1,15 +1,24 @@
 //! The fast path for any mesh: bars reordered by colour.
 //!
 //! A greedy colouring gives every bar the smallest colour not yet used by a
-//! bar at either of its ends; bars are then relaxed colour by colour (in
-//! creation order within a colour), eight at a time in SIMD lanes
-//! ([`sweep`]). Bars of one colour share no particle, so each projection is
-//! independent of the others in its colour: the lanes compute what one bar at
-//! a time would, and the creation-order loop's wait on the previous
-//! projection's result is gone. Positions and the inverse mass sit together
-//! in 16 bytes, one load per bar end.
+//! bar at either of its ends; bars are then relaxed colour by colour, eight
+//! at a time in SIMD lanes ([`sweep`]). Bars of one colour share no
+//! particle, so each projection is independent of the others in its
+//! colour: the lanes compute what one bar at a time would, and the
+//! creation-order loop's wait on the previous projection's result is gone.
+//! Positions and the inverse mass sit together in 16 bytes, one row per
+//! particle.
+//!
+//! The particles are renumbered into dimers ([`order::dimer_order`]): two
+//! neighbours in consecutive rows, dimers side by side like rungs of a
+//! ladder. Bars are then paired ([`pairs`]) so that an octet's lanes l and
+//! l + 4 take the two rows of a dimer at one end or at both, which the AVX2
+//! sweep loads and stores as one 32-byte access where it took two and a
+//! shuffle.
 
 mod colouring;
+mod order;
+mod pairs;
 mod sweep;
 
 use glam::Vec3;
@@ -43,6 +52,8 @@ pub(crate) struct GenericLayout {
     tethers: Option<Tethers>,
     /// The particles' order when it is not the scene's.
     renumbering: Option<Renumbering>,
+    /// Whether that order starts from a breadth-first one.
+    breadth_first: bool,
 }
 
 /// Where each particle sits when the layout renumbered them.
@@ -65,6 +76,9 @@ impl GenericLayout {
         }
     }
 
+    /// The layout of a mesh: its particles in [`order::dimer_order`] (over
+    /// the scene's order, or a breadth-first one where the scene's would
+    /// put more than 1 bar in 20 between blocks), its bars coloured.
     pub(crate) fn new(
         positions: &[Vec3],
         previous: &[Vec3],
@@ -73,29 +87,53 @@ impl GenericLayout {
         tethers: Option<Tethers>,
     ) -> Self {
         let n = positions.len();
-        let mut blocked = BlockedBars::new(bars, n);
-        let mut renumbering = None;
-        if blocked.boundary_is_large() {
-            let scene = colouring::breadth_first_order(n, bars);
+        let renumber = |scene: &[u32]| {
             let mut slot = vec![0u32; n];
             for (k, &i) in scene.iter().enumerate() {
                 slot[i as usize] = k as u32;
             }
             let moved: Vec<Bar> =
                 bars.iter().map(|b| Bar { a: slot[b.a as usize], b: slot[b.b as usize], ..*b }).collect();
-            let candidate = BlockedBars::new(&moved, n);
-            if candidate.boundary_share().0 < blocked.boundary_share().0 {
-                blocked = candidate;
-                renumbering = Some(Renumbering { scene, slot });
+            (Renumbering { scene: scene.to_vec(), slot }, moved)
+        };
+        let mut base = None;
+        if BlockedBars::new(bars, n).boundary_is_large() {
+            let (breadth_first, moved) = renumber(&order::breadth_first_order(n, bars));
+            if BlockedBars::new(&moved, n).boundary_share().0 < BlockedBars::new(bars, n).boundary_share().0 {
+                base = Some((breadth_first, moved));
             }
         }
+        let (base_scene, base_bars) = match &base {
+            Some((r, moved)) => (Some(&r.scene), &moved[..]),
+            None => (None, bars),
+        };
+        let dimers = order::dimer_order(n, base_bars);
+        let scene: Vec<u32> = dimers.iter().map(|&k| base_scene.map_or(k, |s| s[k as usize])).collect();
+        let (renumbering, moved) = renumber(&scene);
+        let mut layout = Self::in_order(positions, previous, inverse_mass, &moved, tethers, Some(renumbering));
+        layout.breadth_first = base.is_some();
+        layout
+    }
+
+    /// The layout with the particles in the order `renumbering` gives (or
+    /// the scene's), `bars` numbered in that order.
+    fn in_order(
+        positions: &[Vec3],
+        previous: &[Vec3],
+        inverse_mass: &[f32],
+        bars: &[Bar],
+        tethers: Option<Tethers>,
+        renumbering: Option<Renumbering>,
+    ) -> Self {
+        let n = positions.len();
         let mut layout = GenericLayout {
             particles: vec![Particle::default(); n],
             displacement: vec![[0.0; 3]; n],
             predicted: vec![[0.0; 3]; n],
-            bars: blocked,
+            bars: BlockedBars::new(bars, n),
             tethers: None,
             renumbering,
+            breadth_first: false,
         };
         layout.set_tethers(tethers);
         for i in 0..n {
@@ -267,7 +305,7 @@ impl Solver for GenericLayout {
             1 => format!("coloured: {colours} colours, {lanes}, one thread"),
             blocks => {
                 let (boundary, all) = self.bars.boundary_share();
-                let order = if self.renumbering.is_some() { "particles renumbered breadth-first, " } else { "" };
+                let order = if self.breadth_first { "particles renumbered breadth-first, " } else { "" };
                 format!(
                     "coloured: {order}{blocks} blocks of ≤ {colours} colours on {} threads, {lanes}; boundary {boundary} of {all} bars in {boundary_colours} colours",
                     rayon::current_num_threads()
@@ -332,11 +370,12 @@ mod tests {
         };
         let shuffled = GenericLayout::new(&positions, &positions, &weights, &bars, Some(tethers.clone()));
         let Some(r) = shuffled.renumbering.clone() else { panic!("not renumbered") };
+        assert!(shuffled.breadth_first);
         let (boundary, _) = shuffled.bars.boundary_share();
         assert!(boundary * 20 < all, "renumbered: boundary {boundary} of {all}");
 
         // The same mesh numbered in the layout's order from the start (bars
-        // in the same creation order): it needs no renumbering and its
+        // in the same creation order) and laid out in that order: its
         // layout holds the same arrays, so every phase must give the same
         // bits, particle for particle, if the renumbering is applied on
         // every way in and out.
@@ -348,14 +387,14 @@ mod tests {
             anchor: r.scene.iter().map(|&i| tethers.anchor[i as usize].map(at)).collect(),
             length: r.scene.iter().map(|&i| tethers.length[i as usize]).collect(),
         };
-        let ordered = GenericLayout::new(
+        let ordered = GenericLayout::in_order(
             &ordered_positions,
             &ordered_positions,
             &ordered_weights,
             &ordered_bars,
             Some(ordered_tethers),
+            None,
         );
-        assert!(ordered.renumbering.is_none());
 
         let velocity: Vec<Vec3> = (0..n).map(|i| Vec3::new(0.0, 0.0, (i % 7) as f32 * 0.01)).collect();
         let ordered_velocity: Vec<Vec3> = r.scene.iter().map(|&i| velocity[i as usize]).collect();

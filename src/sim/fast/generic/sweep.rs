@@ -25,7 +25,10 @@
 //! once, when the colouring is built (a quarter of the octet's ~230
 //! instructions had been bounds checks and index shifts), and the loop
 //! loads the next octet's ends before it finishes the last one, so those
-//! loads wait on nothing ([`avx2`]).
+//! loads wait on nothing ([`avx2`]). A third (2.4 → 2.0 ns): where lanes l
+//! and l + 4 hold bars from the two particles of a dimer ([`super::pairs`]),
+//! those two rows are one 32-byte load and store, not two 16-byte ones and
+//! a shuffle to join or part them.
 
 use super::Particle;
 use super::colouring::{BarColumns, Colouring};
@@ -116,11 +119,11 @@ fn relax_one<const XPBD: bool>(
 mod avx2 {
     use std::arch::x86_64::{
         __m128, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
-        _mm256_extractf128_ps, _mm256_permutevar8x32_ps, _mm256_setr_ps,
+        _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_permutevar8x32_ps, _mm256_setr_ps, _mm256_storeu_ps,
     };
 
     use super::{BarColumns, Colouring, Particle, Sweep};
-    use crate::sim::fast::avx::{Avx, transpose_rows, untranspose_rows};
+    use crate::sim::fast::avx::{Avx, transpose_pairs, transpose_rows, untranspose_rows};
     use crate::sim::fast::kernel::{LANES, Point, Real, bar_length, correct_pair, excess};
 
     /// [`super::relax_pass`] with eight bars at a time.
@@ -161,28 +164,59 @@ mod avx2 {
         for c in 0..colouring.ends.len() {
             let range = colouring.colour(c);
             let mut next = range.start;
-            if c < colouring.independent && next + LANES <= range.end {
+            if c < colouring.independent {
+                let [both, a_end] = colouring.paired[c];
                 // Taken anew for each colour: the last colour's bars after
                 // its octets went through `particles` itself.
                 let rows = particles.as_mut_ptr().cast::<f32>();
-                // SAFETY (each `start` and `finish`): `rows` holds
-                // `colouring.particles` rows (the caller's promise), and
-                // every end of the colouring is below that.
-                let mut pending = unsafe { start(rows, bars, next) };
-                next += LANES;
-                while next + LANES <= range.end {
-                    let started = unsafe { start(rows, bars, next) };
-                    worst = worst.max(unsafe { finish::<XPBD>(rows, bars, pending, mu, sweep) });
-                    pending = started;
-                    next += LANES;
+                let octets = |from: usize, to: usize| from..from + (to - from) / LANES * LANES;
+                let singles = octets(a_end, range.end);
+                // SAFETY (each call): `rows` holds `colouring.particles`
+                // rows (the caller's promise), every end of the colouring is
+                // below that, and the colouring lays out the octets of
+                // `range.start..both` and `both..a_end` paired as
+                // `octets_of` requires.
+                unsafe {
+                    worst = worst.max(octets_of::<XPBD, true, true>(rows, bars, octets(next, both), mu, sweep));
+                    worst = worst.max(octets_of::<XPBD, true, false>(rows, bars, octets(both, a_end), mu, sweep));
+                    worst = worst.max(octets_of::<XPBD, false, false>(rows, bars, singles.clone(), mu, sweep));
                 }
-                worst = worst.max(unsafe { finish::<XPBD>(rows, bars, pending, mu, sweep) });
+                next = singles.end;
             }
             for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
                 worst = worst.max(super::relax_one::<XPBD>(particles, bars, i, mu, sweep));
             }
         }
         worst
+    }
+
+    /// The octets `range` (of one colour, a multiple of eight bars),
+    /// pipelined. With `PA` (`PB`), each octet's lane l + 4 has as end a
+    /// (b) the row after lane l's, and each pair of rows is loaded and
+    /// stored as one 32 bytes.
+    ///
+    /// # Safety
+    /// As [`start`].
+    #[inline(always)]
+    unsafe fn octets_of<const XPBD: bool, const PA: bool, const PB: bool>(
+        rows: *mut f32,
+        bars: &BarColumns,
+        range: std::ops::Range<usize>,
+        mu: &mut [f32],
+        sweep: &Sweep,
+    ) -> f32 {
+        let mut worst = f32::NEG_INFINITY;
+        if range.is_empty() {
+            return worst;
+        }
+        // SAFETY (each `start` and `finish`): the caller's promise.
+        let mut pending = unsafe { start::<PA, PB>(rows, bars, range.start) };
+        for next in range.step_by(LANES).skip(1) {
+            let started = unsafe { start::<PA, PB>(rows, bars, next) };
+            worst = worst.max(unsafe { finish::<XPBD, PA, PB>(rows, bars, pending, mu, sweep) });
+            pending = started;
+        }
+        worst.max(unsafe { finish::<XPBD, PA, PB>(rows, bars, pending, mu, sweep) })
     }
 
     /// An octet started: its first bar, its ends and weights in lanes, and
@@ -201,12 +235,14 @@ mod avx2 {
     /// Loads bars `first..first + 8`'s ends and takes their lengths.
     ///
     /// # Safety
-    /// AVX2 is available; every end of these bars indexes a row of `rows`.
+    /// AVX2 is available; every end of these bars indexes a row of `rows`;
+    /// with `PA` (`PB`), each lane l + 4's end a (b) is the row after lane
+    /// l's.
     #[inline(always)]
-    unsafe fn start(rows: *const f32, bars: &BarColumns, first: usize) -> Started {
+    unsafe fn start<const PA: bool, const PB: bool>(rows: *const f32, bars: &BarColumns, first: usize) -> Started {
         let (ia, ib) = ends(bars, first);
         // SAFETY: the caller's promise.
-        let ((a, wa), (b, wb)) = unsafe { (gather(rows, ia), gather(rows, ib)) };
+        let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, ia), gather::<PB>(rows, ib)) };
         let (d, len) = bar_length(&a, &b);
         Started { first, a, wa, b, wb, d, len }
     }
@@ -218,7 +254,7 @@ mod avx2 {
     /// As [`start`], and no particle was stored between the octet's start
     /// and this call.
     #[inline(always)]
-    unsafe fn finish<const XPBD: bool>(
+    unsafe fn finish<const XPBD: bool, const PA: bool, const PB: bool>(
         rows: *mut f32,
         bars: &BarColumns,
         started: Started,
@@ -239,8 +275,8 @@ mod avx2 {
         let (ia, ib) = ends(bars, first);
         // SAFETY: the caller's promise.
         unsafe {
-            scatter(rows, ia, a, wa);
-            scatter(rows, ib, b, wb);
+            scatter::<PA>(rows, ia, a, wa);
+            scatter::<PB>(rows, ib, b, wb);
         }
         if sweep.tolerance > 0.0 {
             excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest).lanes().into_iter().fold(f32::NEG_INFINITY, Real::max)
@@ -281,16 +317,26 @@ mod avx2 {
         column[first..first + LANES].try_into().unwrap_or_else(|_| unreachable!("a slice of eight"))
     }
 
-    /// Eight particles (x y z w each, one 16-byte load) transposed into
-    /// lanes: positions and weights.
+    /// Eight particles (x y z w each) transposed into lanes: positions and
+    /// weights. Each row takes a 16-byte load; `PAIRED`, lanes l and l + 4
+    /// (rows `index[l]` and the next) take one 32-byte load.
     ///
     /// # Safety
-    /// AVX2 is available; every index is a row of `rows`.
+    /// AVX2 is available; every index is a row of `rows`; `PAIRED`, each
+    /// `index[l + 4]` is the row after `index[l]`.
     #[inline(always)]
-    unsafe fn gather(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
-        // SAFETY: the caller's promise (each offset is a row's first f32).
-        let row = |l: usize| -> __m128 { unsafe { _mm_loadu_ps(rows.add(index[l] as usize)) } };
-        let [x, y, z, w] = transpose_rows([row(0), row(1), row(2), row(3), row(4), row(5), row(6), row(7)]);
+    unsafe fn gather<const PAIRED: bool>(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
+        // SAFETY: the caller's promise (each offset is a row's first f32;
+        // paired, the next row is lane l + 4's).
+        let [x, y, z, w] = unsafe {
+            if PAIRED {
+                let pair = |l: usize| _mm256_loadu_ps(rows.add(index[l] as usize));
+                transpose_pairs([pair(0), pair(1), pair(2), pair(3)])
+            } else {
+                let row = |l: usize| -> __m128 { _mm_loadu_ps(rows.add(index[l] as usize)) };
+                transpose_rows([row(0), row(1), row(2), row(3), row(4), row(5), row(6), row(7)])
+            }
+        };
         ([x, y, z], w)
     }
 
@@ -299,15 +345,19 @@ mod avx2 {
     /// # Safety
     /// As [`gather`].
     #[inline(always)]
-    unsafe fn scatter(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
+    unsafe fn scatter<const PAIRED: bool>(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
         // Register l holds row l in its low half and row l + 4 in its high.
         let pairs = untranspose_rows([x, y, z, w]);
-        // SAFETY: AVX2 is available and every index is a row of `rows` (the
-        // caller's promise).
+        // SAFETY: AVX2 is available and every index is a row of `rows`
+        // (paired, the next row is lane l + 4's): the caller's promise.
         unsafe {
             for (l, pair) in pairs.into_iter().enumerate() {
-                _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
-                _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
+                if PAIRED {
+                    _mm256_storeu_ps(rows.add(index[l] as usize), pair);
+                } else {
+                    _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
+                    _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
+                }
             }
         }
     }
@@ -378,6 +428,17 @@ mod tests {
             let colouring = &one.bars.blocks[0].colouring;
             let in_lanes: usize = (0..colouring.independent).map(|c| colouring.colour(c).len() / LANES * LANES).sum();
             assert!(in_lanes > bars.len() * 9 / 10, "{in_lanes} of {} bars in lanes", bars.len());
+            // All three pairings of an octet's lanes l and l + 4 ran: rows
+            // paired at both ends, at end a, and not at all (a load of the
+            // wrong rows in any of them would change the bits above).
+            let (mut both, mut a_end) = (0, 0);
+            for c in 0..colouring.independent {
+                let [b, a] = colouring.paired[c];
+                both += b - colouring.colour(c).start;
+                a_end += a - b;
+            }
+            let others = in_lanes - both - a_end;
+            assert!(both > bars.len() / 4 && a_end > bars.len() / 4 && others > 0, "{both} {a_end} {others}");
         }
     }
 
