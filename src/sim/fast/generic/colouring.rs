@@ -105,7 +105,22 @@ impl Colouring {
             }
             coloured.push((colour, unit.class, k));
         }
-        coloured.sort_unstable();
+        // By colour, then class, then unit order (a counting sort: the keys
+        // are few).
+        let key = |u: &(u32, Class, usize)| u.0 as usize * 3 + u.1 as usize;
+        let mut start = vec![0usize; (MAX_COLOURS as usize + 1) * 3 + 1];
+        for u in &coloured {
+            start[key(u) + 1] += 1;
+        }
+        for k in 1..start.len() {
+            start[k] += start[k - 1];
+        }
+        let mut sorted = vec![(0, Class::Single, 0); coloured.len()];
+        for u in &coloured {
+            sorted[start[key(u)]] = *u;
+            start[key(u)] += 1;
+        }
+        let coloured = sorted;
         let mut colouring = Colouring { particles, ..Colouring::default() };
         let push = |columns: &mut BarColumns, o: Oriented| {
             columns.a.push(ROW * o.a);
@@ -192,11 +207,22 @@ pub(super) struct BlockedBars {
 }
 
 impl BlockedBars {
-    pub(super) fn new(bars: &[Bar], particles: usize) -> Self {
+    /// How many blocks `particles` particles make, and the particles in
+    /// each (even: a block starts on a dimer, two rows of one 32-byte load).
+    fn cut(particles: usize) -> (usize, usize) {
         let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
         let count = if count > 1 { count.next_multiple_of(THREAD_SHARES) } else { 1 };
-        // Even: a block starts on a dimer (two rows of one 32-byte load).
-        let block_size = particles.div_ceil(count).next_multiple_of(2).max(2);
+        (count, particles.div_ceil(count).next_multiple_of(2).max(2))
+    }
+
+    /// How many of `bars` would join two blocks (without colouring them).
+    pub(super) fn boundary_count(bars: &[Bar], particles: usize) -> usize {
+        let (_, block_size) = Self::cut(particles);
+        bars.iter().filter(|b| b.a as usize / block_size != b.b as usize / block_size).count()
+    }
+
+    pub(super) fn new(bars: &[Bar], particles: usize) -> Self {
+        let (count, block_size) = Self::cut(particles);
         let mut inside: Vec<Vec<&Bar>> = vec![Vec::new(); count];
         let mut boundary = Vec::new();
         for bar in bars {
@@ -218,13 +244,6 @@ impl BlockedBars {
     pub(super) fn colours(&self) -> (usize, usize) {
         let blocks = self.blocks.iter().map(|b| b.colouring.colours()).max().unwrap_or(0);
         (blocks, self.boundary.colouring.colours())
-    }
-
-    /// Whether the boundary holds more than 1 bar in 20: the particles'
-    /// order is not local, and a renumbering may help.
-    pub(super) fn boundary_is_large(&self) -> bool {
-        let (boundary, all) = self.boundary_share();
-        boundary * 20 > all
     }
 
     /// Bars in the boundary, and in all.

@@ -96,10 +96,13 @@ impl GenericLayout {
                 bars.iter().map(|b| Bar { a: slot[b.a as usize], b: slot[b.b as usize], ..*b }).collect();
             (Renumbering { scene: scene.to_vec(), slot }, moved)
         };
+        // More than 1 bar in 20 between blocks: the scene's order is not
+        // local, and a breadth-first one may do better.
         let mut base = None;
-        if BlockedBars::new(bars, n).boundary_is_large() {
+        let boundary = BlockedBars::boundary_count(bars, n);
+        if boundary * 20 > bars.len() {
             let (breadth_first, moved) = renumber(&order::breadth_first_order(n, bars));
-            if BlockedBars::new(&moved, n).boundary_share().0 < BlockedBars::new(bars, n).boundary_share().0 {
+            if BlockedBars::boundary_count(&moved, n) < boundary {
                 base = Some((breadth_first, moved));
             }
         }

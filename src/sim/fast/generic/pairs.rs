@@ -107,12 +107,13 @@ pub(super) fn units(ends: &[(u32, u32)], particles: usize) -> Vec<Unit> {
         }
     }
     // Pairs at a dimer: 2p–x with 2p+1–y, x ≠ y (neither in the dimer).
+    let (mut zero, mut one) = (Vec::new(), Vec::new());
     for p in (0..particles as u32 / 2).map(|m| 2 * m) {
-        let free = |i: u32| -> Vec<usize> {
-            bars_at(i).iter().filter(|&&(n, bar)| dimer(n) != dimer(i) && !used[bar]).map(|&(_, bar)| bar).collect()
-        };
-        let (zero, mut one) = (free(p), free(p + 1));
-        for e in zero {
+        for (i, free) in [(p, &mut zero), (p + 1, &mut one)] {
+            free.clear();
+            free.extend(bars_at(i).iter().filter(|&&(n, bar)| dimer(n) != dimer(i) && !used[bar]).map(|&(_, bar)| bar));
+        }
+        for &e in &zero {
             let x = oriented(e, p).b;
             if let Some(k) = one.iter().position(|&f| oriented(f, p + 1).b != x) {
                 let f = one.remove(k);
