@@ -246,6 +246,19 @@ impl BlockedBars {
         (blocks, self.boundary.colouring.colours())
     }
 
+    /// Bars in octets paired at both ends and at end a, and in all.
+    pub(super) fn paired_share(&self) -> ([usize; 2], usize) {
+        let mut paired = [0; 2];
+        for colouring in self.blocks.iter().chain([&self.boundary]).map(|g| &g.colouring) {
+            for c in 0..colouring.independent {
+                let [both, a_end] = colouring.paired[c];
+                paired[0] += both - colouring.colour(c).start;
+                paired[1] += a_end - both;
+            }
+        }
+        (paired, self.boundary_share().1)
+    }
+
     /// Bars in the boundary, and in all.
     pub(super) fn boundary_share(&self) -> (usize, usize) {
         let all = self.blocks.iter().map(|b| b.multipliers.len()).sum::<usize>() + self.boundary.multipliers.len();

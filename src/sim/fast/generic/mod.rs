@@ -302,8 +302,13 @@ impl Solver for GenericLayout {
 
     fn describe(&self) -> String {
         let (colours, boundary_colours) = self.bars.colours();
-        let lanes =
-            if super::simd::level() >= super::simd::SimdLevel::Avx2 { "8 bars a lane op" } else { "one bar at a time" };
+        let lanes = if super::simd::level() >= super::simd::SimdLevel::Avx2 {
+            let ([both, a_end], all) = self.bars.paired_share();
+            let percent = |n: usize| (100 * n).checked_div(all).unwrap_or(0);
+            format!("8 bars a lane op ({} % paired at both ends, {} % at one)", percent(both), percent(a_end))
+        } else {
+            "one bar at a time".to_string()
+        };
         match self.bars.blocks.len() {
             1 => format!("coloured: {colours} colours, {lanes}, one thread"),
             blocks => {

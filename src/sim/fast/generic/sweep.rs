@@ -431,12 +431,7 @@ mod tests {
             // All three pairings of an octet's lanes l and l + 4 ran: rows
             // paired at both ends, at end a, and not at all (a load of the
             // wrong rows in any of them would change the bits above).
-            let (mut both, mut a_end) = (0, 0);
-            for c in 0..colouring.independent {
-                let [b, a] = colouring.paired[c];
-                both += b - colouring.colour(c).start;
-                a_end += a - b;
-            }
+            let ([both, a_end], _) = one.bars.paired_share();
             let others = in_lanes - both - a_end;
             assert!(both > bars.len() / 4 && a_end > bars.len() / 4 && others > 0, "{both} {a_end} {others}");
         }
