@@ -14,16 +14,17 @@
 use crate::sim::BarKind;
 use crate::sim::mesh::Bar;
 
-/// Each particle's neighbours over a set of bars, in one array, sorted by
-/// index: particle i's are `list[first[i]..first[i + 1]]`.
+/// Each particle's neighbours over a set of bars, with the bar to each
+/// (numbered in the order given), in one array sorted by neighbour then
+/// bar: particle i's are `list[first[i]..first[i + 1]]`.
 pub(super) struct Neighbours {
     first: Vec<usize>,
-    list: Vec<u32>,
+    list: Vec<(u32, u32)>,
 }
 
 impl Neighbours {
     /// The neighbours of `particles` particles over `bars`.
-    pub(super) fn new<'a>(particles: usize, bars: impl Iterator<Item = (u32, u32)> + Clone + 'a) -> Self {
+    pub(super) fn new(particles: usize, bars: impl Iterator<Item = (u32, u32)> + Clone) -> Self {
         let mut first = vec![0usize; particles + 1];
         for (a, b) in bars.clone() {
             first[a as usize + 1] += 1;
@@ -33,10 +34,10 @@ impl Neighbours {
             first[i + 1] += first[i];
         }
         let mut fill = first.clone();
-        let mut list = vec![0u32; first[particles]];
-        for (a, b) in bars {
+        let mut list = vec![(0, 0); first[particles]];
+        for (bar, (a, b)) in bars.enumerate() {
             for (from, to) in [(a, b), (b, a)] {
-                list[fill[from as usize]] = to;
+                list[fill[from as usize]] = (to, bar as u32);
                 fill[from as usize] += 1;
             }
         }
@@ -46,19 +47,26 @@ impl Neighbours {
         Neighbours { first, list }
     }
 
-    /// Particle `i`'s neighbours, ascending.
-    pub(super) fn of(&self, i: usize) -> &[u32] {
+    /// Particle `i`'s neighbours and the bar to each, by neighbour.
+    pub(super) fn of(&self, i: usize) -> &[(u32, u32)] {
         &self.list[self.first[i]..self.first[i + 1]]
     }
 
     /// Particle `i`'s neighbours, as a mutable slice (to reorder them).
-    fn of_mut(&mut self, i: usize) -> &mut [u32] {
+    fn of_mut(&mut self, i: usize) -> &mut [(u32, u32)] {
         &mut self.list[self.first[i]..self.first[i + 1]]
+    }
+
+    /// The bars between `i` and `j` (a mesh may repeat a bar).
+    pub(super) fn between(&self, i: usize, j: u32) -> impl Iterator<Item = u32> + '_ {
+        let at = self.of(i);
+        let k = at.partition_point(|&(n, _)| n < j);
+        at[k..].iter().take_while(move |&&(n, _)| n == j).map(|&(_, bar)| bar)
     }
 
     /// Whether a bar joins `i` and `j`.
     pub(super) fn joined(&self, i: usize, j: u32) -> bool {
-        self.of(i).binary_search(&j).is_ok()
+        self.between(i, j).next().is_some()
     }
 }
 
@@ -75,7 +83,7 @@ pub(super) fn breadth_first_order(particles: usize, bars: &[Bar]) -> Vec<u32> {
     let degree: Vec<u32> = (0..particles).map(|i| neighbours.of(i).len() as u32).collect();
     let by_degree = |&i: &u32| (degree[i as usize], i);
     for i in 0..particles {
-        neighbours.of_mut(i).sort_unstable_by_key(by_degree);
+        neighbours.of_mut(i).sort_unstable_by_key(|(j, _)| by_degree(j));
     }
     let mut roots: Vec<u32> = (0..particles as u32).collect();
     roots.sort_unstable_by_key(by_degree);
@@ -92,7 +100,7 @@ pub(super) fn breadth_first_order(particles: usize, bars: &[Bar]) -> Vec<u32> {
         while next < order.len() {
             let i = order[next] as usize;
             next += 1;
-            for &j in neighbours.of(i) {
+            for &(j, _) in neighbours.of(i) {
                 if !placed[j as usize] {
                     placed[j as usize] = true;
                     order.push(j);
@@ -131,7 +139,7 @@ pub(super) fn dimer_order(particles: usize, bars: &[Bar]) -> Vec<u32> {
     let place = |slot: &mut [u32], free: &mut [u32], order: &mut Vec<u32>, i: u32| {
         slot[i as usize] = order.len() as u32;
         order.push(i);
-        for &k in near.of(i as usize) {
+        for &(k, _) in near.of(i as usize) {
             free[k as usize] -= 1;
         }
     };
@@ -152,15 +160,16 @@ pub(super) fn dimer_order(particles: usize, bars: &[Bar]) -> Vec<u32> {
         // ((−parallel pairs, free neighbours, index), whether i goes first)
         type Key = (std::cmp::Reverse<u32>, u32, u32);
         let mut best: Option<(Key, bool)> = None;
-        let candidates =
-            |list: &'_ [u32]| list.iter().copied().filter(|&j| slot[j as usize] == FREE).collect::<Vec<_>>();
+        let candidates = |list: &'_ [(u32, u32)]| {
+            list.iter().map(|&(j, _)| j).filter(|&j| slot[j as usize] == FREE).collect::<Vec<_>>()
+        };
         let mut partners = candidates(near.of(i));
         if partners.is_empty() {
             partners = candidates(all.of(i));
         }
         for j in partners {
             let (mut i_first, mut j_first) = (0, 0);
-            for &x in all.of(i) {
+            for &(x, _) in all.of(i) {
                 let s = slot[x as usize];
                 // x's partner: the other slot of its dimer, if filled.
                 if s == FREE || (s ^ 1) as usize >= order.len() {

@@ -17,6 +17,8 @@
 //! A bar may be turned end for end to fit: its projection is symmetric (d
 //! changes sign exactly, the moves swap), so the bits do not change.
 
+use super::order::Neighbours;
+
 /// How a unit's two bars meet the dimers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub(super) enum Class {
@@ -59,33 +61,10 @@ impl Unit {
 pub(super) fn units(ends: &[(u32, u32)], particles: usize) -> Vec<Unit> {
     let mut units = Vec::with_capacity(ends.len());
     let mut used = vec![false; ends.len()];
-    // Each particle's bars, (other end, bar) sorted: particle i's are
-    // `list[first[i]..first[i + 1]]`.
-    let mut first = vec![0usize; particles + 1];
-    for &(a, b) in ends {
-        first[a as usize + 1] += 1;
-        first[b as usize + 1] += 1;
-    }
-    for i in 0..particles {
-        first[i + 1] += first[i];
-    }
-    let mut fill = first.clone();
-    let mut list = vec![(0u32, 0usize); first[particles]];
-    for (bar, &(a, b)) in ends.iter().enumerate() {
-        for (from, to) in [(a, b), (b, a)] {
-            list[fill[from as usize]] = (to, bar);
-            fill[from as usize] += 1;
-        }
-    }
-    for i in 0..particles {
-        list[first[i]..first[i + 1]].sort_unstable();
-    }
-    let bars_at = |i: u32| &list[first[i as usize]..first[i as usize + 1]];
-    // A bar between i and j not yet in a unit (a mesh may repeat a bar).
+    let neighbours = Neighbours::new(particles, ends.iter().copied());
+    // A bar between i and j not yet in a unit.
     let between = |used: &[bool], i: u32, j: u32| -> Option<usize> {
-        let at = bars_at(i);
-        let k = at.partition_point(|&(n, _)| n < j);
-        at[k..].iter().take_while(|&&(n, _)| n == j).map(|&(_, bar)| bar).find(|&bar| !used[bar])
+        neighbours.between(i as usize, j).map(|bar| bar as usize).find(|&bar| !used[bar])
     };
     let dimer = |i: u32| i / 2;
     let has_partner = |i: u32| (i | 1) < particles as u32;
@@ -111,7 +90,8 @@ pub(super) fn units(ends: &[(u32, u32)], particles: usize) -> Vec<Unit> {
     for p in (0..particles as u32 / 2).map(|m| 2 * m) {
         for (i, free) in [(p, &mut zero), (p + 1, &mut one)] {
             free.clear();
-            free.extend(bars_at(i).iter().filter(|&&(n, bar)| dimer(n) != dimer(i) && !used[bar]).map(|&(_, bar)| bar));
+            let at = neighbours.of(i as usize).iter().map(|&(n, bar)| (n, bar as usize));
+            free.extend(at.filter(|&(n, bar)| dimer(n) != dimer(i) && !used[bar]).map(|(_, bar)| bar));
         }
         for &e in &zero {
             let x = oriented(e, p).b;
