@@ -166,7 +166,23 @@ impl Colouring {
         // Greedy colours are 0, 1, … without gaps, then MAX_COLOURS.
         colouring.independent =
             coloured.iter().filter(|u| u.0 < MAX_COLOURS).map(|u| u.0 as usize + 1).max().unwrap_or(0);
+        debug_assert!(colouring.pairs_are_neighbouring_rows());
         colouring
+    }
+
+    /// Whether every paired octet's lane l + 4 has the row after lane l's
+    /// at end a (and, paired at both ends, at end b): what the AVX2 sweep's
+    /// 32-byte loads and stores take for granted.
+    fn pairs_are_neighbouring_rows(&self) -> bool {
+        let next = |column: &[u32], i: usize| column[i + 4] == column[i] + ROW;
+        (0..self.independent).all(|c| {
+            let [both, a_end] = self.paired[c];
+            let start = self.colour(c).start;
+            // Lanes 0..4 of the octets from the colour's start.
+            let lanes = |from: usize, to: usize| (from..to).filter(move |i| (i - start) % 8 < 4);
+            lanes(start, both).all(|i| next(&self.bars.a, i) && next(&self.bars.b, i))
+                && lanes(both, a_end).all(|i| next(&self.bars.a, i))
+        })
     }
 
     /// Number of colours (groups).
@@ -290,5 +306,30 @@ impl BlockedBars {
         };
         let boundary = relax_pass(particles, &self.boundary.colouring, &mut self.boundary.multipliers, sweep, true);
         inside.max(boundary)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::BarKind;
+
+    #[test]
+    fn paired_octets_hold_neighbouring_rows_and_a_broken_pair_is_caught() {
+        // A ladder of 17 rungs (dimers 2p, 2p + 1), its two rails only:
+        // units 2p–2p+2 with 2p+1–2p+3, each touching the next, so two
+        // colours of eight units: two octets paired at both ends each.
+        let bars: Vec<Bar> = (0..16)
+            .flat_map(|p| [(2 * p, 2 * p + 2), (2 * p + 1, 2 * p + 3)])
+            .map(|(a, b)| Bar { a, b, rest_length: 1.0, kind: BarKind::Structural })
+            .collect();
+        let refs: Vec<&Bar> = bars.iter().collect();
+        let mut colouring = Colouring::new(&refs, 0, 34);
+        assert_eq!((colouring.independent, colouring.paired.clone()), (2, vec![[16, 16], [32, 32]]));
+        assert!(colouring.pairs_are_neighbouring_rows());
+        // Lane 4 of the first octet given another row at end b: the 32-byte
+        // store would write a row that bar does not own.
+        colouring.bars.b[4] += ROW;
+        assert!(!colouring.pairs_are_neighbouring_rows());
     }
 }
