@@ -20,7 +20,7 @@
 use super::order::Neighbours;
 
 /// How a unit's two bars meet the dimers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Class {
     /// Ends a at 2p, 2p + 1 and ends b at 2q, 2q + 1.
     Both,
