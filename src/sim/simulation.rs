@@ -146,10 +146,27 @@ impl Simulation {
         params: SolverParams,
         kind: SolverKind,
     ) -> Result<Self, SimError> {
+        Self::build(mesh.into(), params, kind, &mut None)
+    }
+
+    /// [`Self::with_solver`], on `reused` when it holds one: a solver of
+    /// `kind` built for this mesh, its particles, weights and tethers
+    /// written back to the mesh's initial state (every one a write, as a pin
+    /// is) instead of a new layout built. The layout is what a large mesh's
+    /// setup costs (colouring, ordering); it depends on the mesh alone.
+    /// `reused` is taken only after every check that can fail.
+    fn build(
+        mesh: Arc<ClothMesh>,
+        params: SolverParams,
+        kind: SolverKind,
+        reused: &mut Option<Box<dyn Solver>>,
+    ) -> Result<Self, SimError> {
         params.validate()?;
-        let mesh = mesh.into();
         units::check_surface(&params, &mesh)?;
         let material = Derived::new(&mesh, &params)?;
+        let projection = if params.inextensible { Some(FastProjection::new(&mesh)?) } else { None };
+        let hierarchy = hierarchy(&mesh, &params)?;
+        // Nothing below fails: `reused` is taken only now.
         let aero = aerodynamics(&mesh, &params, &material);
         let fixed = mesh.fixed().to_vec();
         let inverse_mass: Vec<f32> =
@@ -157,10 +174,18 @@ impl Simulation {
         let positions = mesh.positions().to_vec();
         let previous = positions.clone();
         let tethers = params.tether_slack.map(|_| Tethers::new(positions.len(), mesh.bars(), &fixed));
-        let solver = build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers);
+        let solver = match reused.take() {
+            Some(mut solver) => {
+                for (i, (&w, &x)) in inverse_mass.iter().zip(&positions).enumerate() {
+                    solver.set_inverse_mass(i, w);
+                    solver.set_particle(i, x, x);
+                }
+                solver.set_tethers(tethers);
+                solver
+            }
+            None => build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers),
+        };
         let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
-        let projection = if params.inextensible { Some(FastProjection::new(&mesh)?) } else { None };
-        let hierarchy = hierarchy(&mesh, &params)?;
         let edges = mesh.bars().iter().filter(|b| mesh.is_edge(b)).copied().collect();
         Ok(Self {
             mesh,
@@ -195,12 +220,26 @@ impl Simulation {
 
     /// Back to the mesh's initial state and time 0, keeping parameters,
     /// solver and colliders (as they are now: see [`Self::set_colliders`]).
+    /// The solver's layout is kept and its particles written back, so a
+    /// reset costs writes, not a new layout (disc-183, 101 017 particles:
+    /// see the README's *Reset*); the steps after it give the bits a new
+    /// simulation's would.
     pub fn reset(&mut self) {
-        let fresh = Self::with_solver(self.mesh.clone(), self.params.clone(), self.kind);
-        // Parameters were validated when set, so rebuilding cannot fail.
-        if let Ok(fresh) = fresh {
-            let colliders = std::mem::take(&mut self.colliders);
-            *self = fresh.with_colliders(colliders);
+        // The solver moves into the new state; an empty one holds its place.
+        let empty = Box::new(ReferenceSolver::new(&[], &[], &[], &[], None));
+        let mut reused = Some(std::mem::replace(&mut self.solver, empty as Box<dyn Solver>));
+        match Self::build(self.mesh.clone(), self.params.clone(), self.kind, &mut reused) {
+            Ok(fresh) => {
+                let colliders = std::mem::take(&mut self.colliders);
+                *self = fresh.with_colliders(colliders);
+            }
+            // Parameters were validated when set, so this cannot fail; were
+            // it to (before `reused` is taken), the simulation stays as it was.
+            Err(_) => {
+                if let Some(solver) = reused.take() {
+                    self.solver = solver;
+                }
+            }
         }
     }
 
