@@ -234,8 +234,10 @@ impl Simulation {
                 *self = fresh.with_colliders(colliders);
             }
             // Parameters were validated when set, so this cannot fail; were
-            // it to (before `reused` is taken), the simulation stays as it was.
-            Err(_) => {
+            // it to (before `reused` is taken), the simulation stays as it
+            // was, and the log says why.
+            Err(err) => {
+                log::error!("reset failed, the simulation is left as it was: {err}");
                 if let Some(solver) = reused.take() {
                     self.solver = solver;
                 }

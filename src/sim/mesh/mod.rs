@@ -21,7 +21,7 @@
 mod grid;
 pub mod surface;
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -417,9 +417,10 @@ impl ClothMesh {
             fixed_flags[i as usize] = true;
         }
         let mut bars = Vec::new();
-        let mut seen: HashSet<(u32, u32)> = HashSet::new();
+        let mut seen: FxHashSet<(u32, u32)> = FxHashSet::default();
+        let mut in_this_list: FxHashSet<u32> = FxHashSet::default();
         for (i, list) in adjacency.iter().enumerate() {
-            let mut in_this_list = HashSet::with_capacity(list.len());
+            in_this_list.clear();
             for &j in list {
                 let j = check_index(|| format!("adjacency[{i}]"), j, n)?;
                 let i = i as u32;
@@ -472,27 +473,39 @@ impl ClothMesh {
                 return Err(MeshError::DegenerateTriangle { index: i, vertices: *t });
             }
         }
-        // Edge → the vertices opposite it, in the order triangles list them.
-        let mut edges: Vec<(u32, u32)> = Vec::new();
-        let mut opposite: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        // Every edge once, in the order triangles first list it, as an
+        // undirected key; per edge, the first two vertices opposite it (in
+        // the order triangles list them) and how many there are. One table
+        // entry an edge, no list each: a 100 000-vertex mesh has 300 000.
+        let key = |a: u32, b: u32| u64::from(a.min(b)) << 32 | u64::from(a.max(b));
+        let mut index: FxHashMap<u64, u32> = FxHashMap::default();
+        index.reserve(triangles.len() * 3 / 2 + 3);
+        let mut edges: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 3 / 2 + 3);
+        let mut opposite: Vec<([u32; 2], u32)> = Vec::with_capacity(edges.capacity());
         for t in &triangles {
             for k in 0..3 {
                 let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-                let key = (a.min(b), a.max(b));
-                let entry = opposite.entry(key).or_default();
-                if entry.is_empty() {
+                let e = *index.entry(key(a, b)).or_insert_with(|| {
                     edges.push((a, b));
+                    opposite.push(([0; 2], 0));
+                    (edges.len() - 1) as u32
+                });
+                let (first, count) = &mut opposite[e as usize];
+                if let Some(slot) = first.get_mut(*count as usize) {
+                    *slot = c;
                 }
-                entry.push(c);
+                *count += 1;
             }
         }
-        let mut seen: HashSet<(u32, u32)> = edges.iter().map(|&(a, b)| (a.min(b), a.max(b))).collect();
+        // A bend bar across every edge of exactly two triangles, unless it
+        // joins a vertex to itself or to one at the same place, or repeats
+        // an edge or an earlier bend bar.
         let mut bars: Vec<(u32, u32, BarKind)> = edges.iter().map(|&(a, b)| (a, b, BarKind::Structural)).collect();
-        for &(a, b) in &edges {
-            if let [c, d] = opposite[&(a.min(b), a.max(b))][..] {
-                let key = (c.min(d), c.max(d));
+        let mut bends: FxHashSet<u64> = FxHashSet::default();
+        for &([c, d], count) in &opposite {
+            if count == 2 && c != d {
                 let far_enough = positions[c as usize].distance(positions[d as usize]) > 0.0;
-                if c != d && far_enough && seen.insert(key) {
+                if far_enough && !index.contains_key(&key(c, d)) && bends.insert(key(c, d)) {
                     bars.push((c, d, BarKind::Bend));
                 }
             }
@@ -713,6 +726,31 @@ mod tests {
         assert!((bend[0].rest_length - 2f32.sqrt()).abs() < 1e-6);
         let err = ClothMesh::from_triangles(vec![Vec3::ZERO, Vec3::X], vec![[0, 1, 1]], &[], None);
         assert!(matches!(err, Err(MeshError::IndexOutOfRange { .. }) | Err(MeshError::DegenerateTriangle { .. })));
+    }
+
+    #[test]
+    fn bend_bars_skip_shared_edges_of_three_triangles_repeats_and_edges() {
+        let bars = |mesh: &ClothMesh, kind| -> Vec<(u32, u32)> {
+            mesh.bars().iter().filter(|b| b.kind == kind).map(|b| (b.a, b.b)).collect()
+        };
+        let at = |n: usize| (0..n).map(|i| Vec3::new(i as f32, (i * i) as f32 * 0.1, 0.0)).collect::<Vec<_>>();
+        // Edge 0–1 in three triangles: no bend bar across it; the other
+        // edges are in one triangle each.
+        let fan = ClothMesh::from_triangles(at(5), vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]], &[], None).unwrap();
+        let edges = vec![(0, 1), (1, 2), (2, 0), (0, 3), (3, 1), (1, 4), (4, 0)];
+        assert_eq!((bars(&fan, BarKind::Structural), bars(&fan, BarKind::Bend)), (edges, vec![]));
+        // A closed tetrahedron: every edge in two triangles, and every bend
+        // bar across one would repeat the opposite edge.
+        let tetrahedron = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]];
+        let closed = ClothMesh::from_triangles(at(4), tetrahedron.to_vec(), &[], None).unwrap();
+        assert_eq!((bars(&closed, BarKind::Structural).len(), bars(&closed, BarKind::Bend)), (6, vec![]));
+        // Two edges each with 3 and 4 opposite (0–1 and 1–2), two with 0 and
+        // 2 (1–3 and 1–4): one bend bar each, in the order of the edges
+        // that first give them, ends as the triangles list them.
+        let wings = vec![[0, 1, 3], [1, 0, 4], [1, 2, 3], [2, 1, 4]];
+        let mesh = ClothMesh::from_triangles(at(5), wings, &[], None).unwrap();
+        let edges = vec![(0, 1), (1, 3), (3, 0), (0, 4), (4, 1), (1, 2), (2, 3), (4, 2)];
+        assert_eq!((bars(&mesh, BarKind::Structural), bars(&mesh, BarKind::Bend)), (edges, vec![(3, 4), (0, 2)]));
     }
 
     #[test]
