@@ -40,6 +40,11 @@ fn relaxations(c: &mut Criterion) {
 /// Square cloths of n × n at 20 relaxations, hung by the top row in a light
 /// seed wind with physical gravity (9.8 m/s²): the fast solver on one thread
 /// and on all threads, and the reference.
+///
+/// The one-thread runs enter their pool once and time every step inside
+/// it: entering it for each step hands the step to the pool's sleeping
+/// thread and back, which cost 30–50 µs a step on host D (a tablecloth
+/// step is about 340 µs), a cost of the benchmark, not of the solver.
 fn scale(c: &mut Criterion) {
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
     let mut group = c.benchmark_group("scale");
@@ -66,7 +71,7 @@ fn scale(c: &mut Criterion) {
             let mut sim = warmed(mesh.clone(), params.clone(), kind);
             group.throughput(Throughput::Elements(sim.projections_per_step()));
             group.bench_function(BenchmarkId::new(name, n), |b| match pool {
-                Some(pool) => b.iter(|| pool.install(|| sim.step().expect("no blow-up"))),
+                Some(pool) => pool.install(|| b.iter(|| sim.step().expect("no blow-up"))),
                 None => b.iter(|| sim.step().expect("no blow-up")),
             });
         }
@@ -367,7 +372,7 @@ fn meshes(c: &mut Criterion) {
             let mut sim = warmed(mesh.clone(), params.clone(), kind);
             group.throughput(Throughput::Elements(sim.projections_per_step()));
             group.bench_function(BenchmarkId::new(name, mesh_name), |b| match pool {
-                Some(pool) => b.iter(|| pool.install(|| sim.step().expect("no blow-up"))),
+                Some(pool) => pool.install(|| b.iter(|| sim.step().expect("no blow-up"))),
                 None => b.iter(|| sim.step().expect("no blow-up")),
             });
         }
