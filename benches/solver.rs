@@ -9,7 +9,7 @@ mod common;
 
 use std::time::Duration;
 
-use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Bencher, BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use drape::sim::{Collider, Grid, GridPlane, Pins, Pose, Shape, Simulation, SolverKind, SolverParams, Wind};
 use glam::Vec3;
 
@@ -18,6 +18,18 @@ fn warmed(mesh: drape::sim::ClothMesh, params: SolverParams, kind: SolverKind) -
     let mut sim = Simulation::with_solver(mesh, params, kind).expect("valid benchmark scene");
     sim.advance(20).expect("the benchmark scene does not blow up");
     sim
+}
+
+/// Times `sim`'s step, inside `pool` when one is given (the one-thread
+/// runs). The pool is entered once and every step timed inside it:
+/// entering it for each step hands the step to the pool's sleeping thread
+/// and back, which cost 30–50 µs a step on host D (a tablecloth step is
+/// about 340 µs), a cost of the benchmark, not of the solver.
+fn time_steps(b: &mut Bencher, sim: &mut Simulation, pool: Option<&rayon::ThreadPool>) {
+    match pool {
+        Some(pool) => pool.install(|| b.iter(|| sim.step().expect("no blow-up"))),
+        None => b.iter(|| sim.step().expect("no blow-up")),
+    }
 }
 
 /// The seed's Table 1: its scene (20 × 30, δ = 0.02, h = 0.05 s, m = 0.2 kg,
@@ -40,11 +52,6 @@ fn relaxations(c: &mut Criterion) {
 /// Square cloths of n × n at 20 relaxations, hung by the top row in a light
 /// seed wind with physical gravity (9.8 m/s²): the fast solver on one thread
 /// and on all threads, and the reference.
-///
-/// The one-thread runs enter their pool once and time every step inside
-/// it: entering it for each step hands the step to the pool's sleeping
-/// thread and back, which cost 30–50 µs a step on host D (a tablecloth
-/// step is about 340 µs), a cost of the benchmark, not of the solver.
 fn scale(c: &mut Criterion) {
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
     let mut group = c.benchmark_group("scale");
@@ -70,10 +77,7 @@ fn scale(c: &mut Criterion) {
         for (name, kind, pool) in runs {
             let mut sim = warmed(mesh.clone(), params.clone(), kind);
             group.throughput(Throughput::Elements(sim.projections_per_step()));
-            group.bench_function(BenchmarkId::new(name, n), |b| match pool {
-                Some(pool) => pool.install(|| b.iter(|| sim.step().expect("no blow-up"))),
-                None => b.iter(|| sim.step().expect("no blow-up")),
-            });
+            group.bench_function(BenchmarkId::new(name, n), |b| time_steps(b, &mut sim, pool));
         }
     }
     group.finish();
@@ -371,10 +375,7 @@ fn meshes(c: &mut Criterion) {
         for (name, kind, pool) in runs {
             let mut sim = warmed(mesh.clone(), params.clone(), kind);
             group.throughput(Throughput::Elements(sim.projections_per_step()));
-            group.bench_function(BenchmarkId::new(name, mesh_name), |b| match pool {
-                Some(pool) => pool.install(|| b.iter(|| sim.step().expect("no blow-up"))),
-                None => b.iter(|| sim.step().expect("no blow-up")),
-            });
+            group.bench_function(BenchmarkId::new(name, mesh_name), |b| time_steps(b, &mut sim, pool));
         }
     }
     group.finish();

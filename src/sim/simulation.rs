@@ -222,8 +222,8 @@ impl Simulation {
     /// solver and colliders (as they are now: see [`Self::set_colliders`]).
     /// The solver's layout is kept and its particles written back, so a
     /// reset costs writes, not a new layout (disc-183, 101 017 particles:
-    /// see *Reset* in docs/performance.md); the steps after it give the bits a new
-    /// simulation's would.
+    /// see *Reset* in docs/performance.md); the steps after it give the
+    /// bits a new simulation's would.
     pub fn reset(&mut self) {
         // The solver moves into the new state; an empty one holds its place.
         let empty = Box::new(ReferenceSolver::new(&[], &[], &[], &[], None));
