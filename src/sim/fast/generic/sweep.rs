@@ -137,12 +137,44 @@ mod avx2 {
         mu: &mut [f32],
         sweep: &Sweep,
     ) -> f32 {
+        let columns = Columns::new(&colouring.bars, mu);
         // SAFETY: the caller's promise, passed on.
         unsafe {
-            if sweep.betas.iter().any(|&b| b > 0.0) {
-                relax_colours::<true>(particles, colouring, mu, sweep)
-            } else {
-                relax_colours::<false>(particles, colouring, mu, sweep)
+            match (sweep.betas.iter().any(|&b| b > 0.0), sweep.tolerance > 0.0) {
+                (true, true) => relax_colours::<true, true>(particles, colouring, columns, mu, sweep),
+                (true, false) => relax_colours::<true, false>(particles, colouring, columns, mu, sweep),
+                (false, true) => relax_colours::<false, true>(particles, colouring, columns, mu, sweep),
+                (false, false) => relax_colours::<false, false>(particles, colouring, columns, mu, sweep),
+            }
+        }
+    }
+
+    /// The bar columns and the multipliers as pointers, checked once a pass
+    /// to be as long as one another: an octet reads eight of each without
+    /// a bounds check (the checks, the loop's iterator and the excess when
+    /// no tolerance is set were about 30 of an octet's 142 instructions).
+    #[derive(Clone, Copy)]
+    struct Columns {
+        a: *const u32,
+        b: *const u32,
+        rest: *const f32,
+        kind: *const u8,
+        mu: *mut f32,
+    }
+
+    impl Columns {
+        fn new(bars: &BarColumns, mu: &mut [f32]) -> Self {
+            let n = mu.len();
+            assert!(
+                bars.a.len() == n && bars.b.len() == n && bars.rest.len() == n && bars.kind.len() == n,
+                "the colouring's columns and multipliers differ in length"
+            );
+            Columns {
+                a: bars.a.as_ptr(),
+                b: bars.b.as_ptr(),
+                rest: bars.rest.as_ptr(),
+                kind: bars.kind.as_ptr(),
+                mu: mu.as_mut_ptr(),
             }
         }
     }
@@ -153,9 +185,10 @@ mod avx2 {
     /// # Safety
     /// As [`relax_pass`].
     #[target_feature(enable = "avx2,fma")]
-    unsafe fn relax_colours<const XPBD: bool>(
+    unsafe fn relax_colours<const XPBD: bool, const TOLERANCE: bool>(
         particles: &mut [Particle],
         colouring: &Colouring,
+        columns: Columns,
         mu: &mut [f32],
         sweep: &Sweep,
     ) -> f32 {
@@ -173,13 +206,15 @@ mod avx2 {
                 let singles = octets(a_end, range.end);
                 // SAFETY (each call): `rows` holds `colouring.particles`
                 // rows (the caller's promise), every end of the colouring is
-                // below that, and the colouring lays out the octets of
+                // below that, the octets are within the columns (a colour
+                // is), and the colouring lays out the octets of
                 // `range.start..both` and `both..a_end` paired as
                 // `octets_of` requires.
                 unsafe {
-                    worst = worst.max(octets_of::<XPBD, true, true>(rows, bars, octets(next, both), mu, sweep));
-                    worst = worst.max(octets_of::<XPBD, true, false>(rows, bars, octets(both, a_end), mu, sweep));
-                    worst = worst.max(octets_of::<XPBD, false, false>(rows, bars, singles.clone(), mu, sweep));
+                    let c = columns;
+                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, c, octets(next, both), sweep));
+                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, c, octets(both, a_end), sweep));
+                    worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, c, singles.clone(), sweep));
                 }
                 next = singles.end;
             }
@@ -198,11 +233,10 @@ mod avx2 {
     /// # Safety
     /// As [`start`].
     #[inline(always)]
-    unsafe fn octets_of<const XPBD: bool, const PA: bool, const PB: bool>(
+    unsafe fn octets_of<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
         rows: *mut f32,
-        bars: &BarColumns,
+        columns: Columns,
         range: std::ops::Range<usize>,
-        mu: &mut [f32],
         sweep: &Sweep,
     ) -> f32 {
         let mut worst = f32::NEG_INFINITY;
@@ -210,13 +244,15 @@ mod avx2 {
             return worst;
         }
         // SAFETY (each `start` and `finish`): the caller's promise.
-        let mut pending = unsafe { start::<PA, PB>(rows, bars, range.start) };
-        for next in range.step_by(LANES).skip(1) {
-            let started = unsafe { start::<PA, PB>(rows, bars, next) };
-            worst = worst.max(unsafe { finish::<XPBD, PA, PB>(rows, bars, pending, mu, sweep) });
+        let mut pending = unsafe { start::<PA, PB>(rows, columns, range.start) };
+        let mut next = range.start + LANES;
+        while next < range.end {
+            let started = unsafe { start::<PA, PB>(rows, columns, next) };
+            worst = worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) });
             pending = started;
+            next += LANES;
         }
-        worst.max(unsafe { finish::<XPBD, PA, PB>(rows, bars, pending, mu, sweep) })
+        worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) })
     }
 
     /// An octet started: its first bar, its ends and weights in lanes, and
@@ -235,14 +271,15 @@ mod avx2 {
     /// Loads bars `first..first + 8`'s ends and takes their lengths.
     ///
     /// # Safety
-    /// AVX2 is available; every end of these bars indexes a row of `rows`;
-    /// with `PA` (`PB`), each lane l + 4's end a (b) is the row after lane
-    /// l's.
+    /// AVX2 is available; bars `first..first + 8` are within `columns`;
+    /// every end of these bars indexes a row of `rows`; with `PA` (`PB`),
+    /// each lane l + 4's end a (b) is the row after lane l's.
     #[inline(always)]
-    unsafe fn start<const PA: bool, const PB: bool>(rows: *const f32, bars: &BarColumns, first: usize) -> Started {
-        let (ia, ib) = ends(bars, first);
+    unsafe fn start<const PA: bool, const PB: bool>(rows: *const f32, columns: Columns, first: usize) -> Started {
         // SAFETY: the caller's promise.
-        let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, ia), gather::<PB>(rows, ib)) };
+        let (ia, ib) = unsafe { ends(columns, first) };
+        // SAFETY: the caller's promise.
+        let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
         let (d, len) = bar_length(&a, &b);
         Started { first, a, wa, b, wb, d, len }
     }
@@ -254,46 +291,49 @@ mod avx2 {
     /// As [`start`], and no particle was stored between the octet's start
     /// and this call.
     #[inline(always)]
-    unsafe fn finish<const XPBD: bool, const PA: bool, const PB: bool>(
+    unsafe fn finish<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
         rows: *mut f32,
-        bars: &BarColumns,
+        columns: Columns,
         started: Started,
-        mu: &mut [f32],
         sweep: &Sweep,
     ) -> f32 {
         let Started { first, mut a, wa, mut b, wb, d, len } = started;
-        let rest = Avx::load(&bars.rest[first..]);
+        // SAFETY: bars `first..first + 8` are within the columns (the
+        // caller's promise); AVX2 is available.
+        let rest = unsafe { Avx(_mm256_loadu_ps(columns.rest.add(first))) };
         // Not compliant: every β is 0.
-        // SAFETY: AVX2 is available (the caller's promise).
-        let beta = if XPBD { unsafe { betas(&bars.kind, first, sweep) } } else { Avx::splat(0.0) };
-        let mut mu8 = if XPBD { Avx::load(&mu[first..]) } else { Avx::splat(0.0) };
+        // SAFETY: as above.
+        let beta = if XPBD { unsafe { betas(columns.kind.add(first), sweep) } } else { Avx::splat(0.0) };
+        // SAFETY: as above.
+        let mut mu8 = if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
         let omega = Avx::splat(sweep.omega);
         let v = correct_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, d, len, rest, &mut mu8, beta, omega);
-        if XPBD {
-            mu[first..first + LANES].copy_from_slice(&mu8.lanes());
-        }
-        let (ia, ib) = ends(bars, first);
         // SAFETY: the caller's promise.
         unsafe {
-            scatter::<PA>(rows, ia, a, wa);
-            scatter::<PB>(rows, ib, b, wb);
+            if XPBD {
+                _mm256_storeu_ps(columns.mu.add(first), mu8.0);
+            }
+            let (ia, ib) = ends(columns, first);
+            scatter::<PA>(rows, &ia, a, wa);
+            scatter::<PB>(rows, &ib, b, wb);
         }
-        if sweep.tolerance > 0.0 {
+        if TOLERANCE {
             excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest).lanes().into_iter().fold(f32::NEG_INFINITY, Real::max)
         } else {
             f32::NEG_INFINITY
         }
     }
 
-    /// β of bars `first..first + 8`, by kind: their eight kind bytes,
+    /// β of eight bars, by kind: their eight kind bytes (at `kind`),
     /// widened to lanes, pick from the kinds' β (`vpermps`) where eight
     /// checked table lookups went through memory before.
     ///
     /// # Safety
-    /// AVX2 is available.
+    /// AVX2 is available; `kind` points at eight bytes.
     #[inline(always)]
-    unsafe fn betas(kind: &[u8], first: usize, sweep: &Sweep) -> Avx {
-        let kinds: [u8; LANES] = kind[first..first + LANES].try_into().unwrap_or_else(|_| unreachable!("eight"));
+    unsafe fn betas(kind: *const u8, sweep: &Sweep) -> Avx {
+        // SAFETY: the caller's promise.
+        let kinds = unsafe { kind.cast::<[u8; LANES]>().read_unaligned() };
         let [b0, b1, b2] = sweep.betas;
         // SAFETY: AVX2 is available (the caller's promise). A kind is below
         // `BarKind::COUNT` = 3; `vpermps` reads only the low three bits of
@@ -306,15 +346,18 @@ mod avx2 {
     }
 
     /// The ends of bars `first..first + 8`.
+    ///
+    /// # Safety
+    /// Bars `first..first + 8` are within `columns`.
     #[inline(always)]
-    fn ends(bars: &BarColumns, first: usize) -> (&[u32; LANES], &[u32; LANES]) {
-        (eight(&bars.a, first), eight(&bars.b, first))
-    }
-
-    /// `column[first..first + 8]`, one bounds check.
-    #[inline(always)]
-    fn eight(column: &[u32], first: usize) -> &[u32; LANES] {
-        column[first..first + LANES].try_into().unwrap_or_else(|_| unreachable!("a slice of eight"))
+    unsafe fn ends(columns: Columns, first: usize) -> ([u32; LANES], [u32; LANES]) {
+        // SAFETY: the caller's promise.
+        unsafe {
+            (
+                columns.a.add(first).cast::<[u32; LANES]>().read_unaligned(),
+                columns.b.add(first).cast::<[u32; LANES]>().read_unaligned(),
+            )
+        }
     }
 
     /// Eight particles (x y z w each) transposed into lanes: positions and
@@ -404,12 +447,15 @@ mod tests {
             eprintln!("no AVX2 here (or DRAPE_SIMD): the lanes are not used, nothing to compare");
             return;
         }
-        // Unequal masses (1, ½, ⅓, fixed); rigid bars, then compliant ones
-        // of three different β over-relaxed with a tolerance: the lanes take
+        // Unequal masses (1, ½, ⅓, fixed); rigid bars and compliant ones of
+        // three different β over-relaxed, each with and without a
+        // tolerance (the four variants the sweep compiles): the lanes take
         // weights and β per bar, and the excess.
         let (positions, bars) = crumpled_sheet(40);
         let weights: Vec<f32> = (0..positions.len()).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
-        for (betas, omega, tolerance) in [([0.0; 3], 1.0, 0.0), ([0.3, 2.0, 0.7], 1.2, 0.001)] {
+        let (rigid, compliant) = (([0.0; 3], 1.0), ([0.3, 2.0, 0.7], 1.2));
+        let cases = [(rigid, 0.0), (rigid, 0.001), (compliant, 0.0), (compliant, 0.001)];
+        for ((betas, omega), tolerance) in cases {
             let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
             assert_eq!(layout.bars.blocks.len(), 1, "a small sheet is one block");
             let sweep = Sweep { betas, omega, tolerance };
