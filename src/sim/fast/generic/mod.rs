@@ -54,6 +54,10 @@ pub(crate) struct GenericLayout {
     renumbering: Option<Renumbering>,
     /// Whether that order starts from a breadth-first one.
     breadth_first: bool,
+    /// A weight changed since the bars' still octets were counted
+    /// ([`BlockedBars::count_still`]): they are counted again before the
+    /// next pass.
+    weights_changed: bool,
 }
 
 /// Where each particle sits when the layout renumbered them.
@@ -129,20 +133,25 @@ impl GenericLayout {
         renumbering: Option<Renumbering>,
     ) -> Self {
         let n = positions.len();
+        let scene = |k: usize| renumbering.as_ref().map_or(k, |r| r.scene[k] as usize);
+        let fixed: Vec<bool> = (0..n).map(|k| inverse_mass[scene(k)] == 0.0).collect();
         let mut layout = GenericLayout {
             particles: vec![Particle::default(); n],
             displacement: vec![[0.0; 3]; n],
             predicted: vec![[0.0; 3]; n],
-            bars: BlockedBars::new(bars, n),
+            bars: BlockedBars::new(bars, n, &fixed),
             tethers: None,
             renumbering,
             breadth_first: false,
+            weights_changed: true,
         };
         layout.set_tethers(tethers);
         for i in 0..n {
             layout.set_inverse_mass(i, inverse_mass[i]);
             layout.set_particle(i, positions[i], previous[i]);
         }
+        layout.bars.count_still(&layout.particles);
+        layout.weights_changed = false;
         layout
     }
 
@@ -204,6 +213,10 @@ impl Solver for GenericLayout {
         }
         if s.compliant() {
             self.bars.reset_multipliers();
+        }
+        if self.weights_changed {
+            self.bars.count_still(&self.particles);
+            self.weights_changed = false;
         }
         let sweep = Sweep { betas: s.betas(), omega: s.over_relaxation, tolerance: s.tolerance };
         let mut sweeps = 0;
@@ -274,6 +287,7 @@ impl Solver for GenericLayout {
     fn set_inverse_mass(&mut self, index: usize, weight: f32) {
         let k = self.slot(index);
         self.particles[k].weight = weight;
+        self.weights_changed = true;
     }
 
     /// Keeps them in the layout's order: particle and anchor renumbered.
@@ -302,12 +316,16 @@ impl Solver for GenericLayout {
 
     fn describe(&self) -> String {
         let (colours, boundary_colours) = self.bars.colours();
+        let ([both, a_end], all) = self.bars.paired_share();
+        let percent = |n: usize| (100 * n).checked_div(all).unwrap_or(0);
         let lanes = if super::simd::level() >= super::simd::SimdLevel::Avx2 {
-            let ([both, a_end], all) = self.bars.paired_share();
-            let percent = |n: usize| (100 * n).checked_div(all).unwrap_or(0);
             format!("8 bars a lane op ({} % paired at both ends, {} % at one)", percent(both), percent(a_end))
         } else {
             "one bar at a time".to_string()
+        };
+        let lanes = match self.bars.still_share().0 {
+            0 => lanes,
+            still => format!("{lanes}, {still} bars between fixed particles skipped ({} %)", percent(still)),
         };
         match self.bars.blocks.len() {
             1 => format!("coloured: {colours} colours, {lanes}, one thread"),
@@ -368,7 +386,7 @@ mod tests {
         let n = positions.len();
         // In the shuffled order nearly every bar would cross between the two
         // blocks (half of them, for random numbers); renumbered, few do.
-        let (scene_boundary, all) = BlockedBars::new(&bars, n).boundary_share();
+        let (scene_boundary, all) = BlockedBars::new(&bars, n, &vec![false; n]).boundary_share();
         assert!(scene_boundary * 3 > all, "scene order: boundary {scene_boundary} of {all}");
         // Fixed particles here and there, unequal masses, tethers to particle 0.
         let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { [1.0, 0.5, 0.25][i % 3] }).collect();
@@ -452,5 +470,89 @@ mod tests {
         assert!(xa.iter().zip(&positions).filter(|(x, p)| x != p).count() > n / 2);
         a.set_particle(11, Vec3::NAN, Vec3::ZERO);
         assert_eq!(a.first_non_finite(), Some(11));
+    }
+
+    #[test]
+    fn octets_between_fixed_particles_are_skipped_with_the_bits_of_projecting_them() {
+        // A 40 × 40 sheet whose first 12 of 40 rows are fixed (y = −0.1 r,
+        // so y > −1.15): 30 % of the particles, and some 1 000 bars with
+        // both ends among them, which move nothing when projected.
+        let (positions, bars) = shuffled_sheet(40);
+        let n = positions.len();
+        let mut weights: Vec<f32> = positions.iter().map(|p| if p.y > -1.15 { 0.0 } else { 1.0 }).collect();
+        let skipping = GenericLayout::new(&positions, &positions, &weights, &bars, None);
+        let (still, all) = skipping.bars.still_share();
+        assert!(still > all / 10, "{still} of {all} bars skipped");
+        // The same layout projecting every bar: no octet counted still.
+        let project_all = |l: &mut GenericLayout| {
+            let free: Vec<Particle> = l.particles.iter().map(|p| Particle { weight: 1.0, ..*p }).collect();
+            l.bars.count_still(&free);
+            l.weights_changed = false;
+        };
+        let mut projecting = skipping.clone();
+        project_all(&mut projecting);
+        assert_eq!(projecting.bars.still_share().0, 0);
+
+        let substep = |first| Substep {
+            dt: 0.01,
+            keep: 0.98,
+            accel: Vec3::new(0.0, 0.0, 1e-4),
+            gravity: Vec3::new(0.0, -9.8e-4, 0.0),
+            first,
+            relaxations: 5,
+            tolerance: 0.0,
+            over_relaxation: 1.0,
+            stretch_beta: 0.1,
+            bend_beta: 1.0,
+            shear_beta: 0.1,
+            tether_slack: None,
+        };
+        let velocity = vec![Vec3::new(0.0, 0.0, 0.01); n];
+        let steps = |l: &mut GenericLayout, first: bool| {
+            for step in 0..3 {
+                l.integrate(&substep((first && step == 0).then_some((&velocity[..], Vec3::ZERO))));
+                l.relax(&substep(None));
+                l.settle();
+            }
+        };
+        // The bits of every coordinate, but for the sign of a zero: a
+        // projection adds w c d = ±0 to a fixed end, which turns a −0 (a
+        // row's y = −0.1 · 0 here) into +0, and a skipped one leaves it.
+        let bits = |l: &GenericLayout| {
+            let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            l.read(&mut x, &mut x_prev);
+            x.iter().chain(&x_prev).flat_map(|p| p.to_array().map(|c| (c + 0.0).to_bits())).collect::<Vec<u32>>()
+        };
+        let (mut skipping, mut stale) = (skipping.clone(), skipping);
+        for l in [&mut skipping, &mut stale, &mut projecting] {
+            steps(l, true);
+        }
+        assert_eq!(bits(&skipping), bits(&projecting));
+
+        // Free a particle at an end of the first skipped octet: its bars
+        // move again, so the skip must end there. `stale` is not told (its
+        // still octets stay as counted): it must then differ, which shows
+        // the freed particle's bars were skipped before.
+        let colouring = &skipping.bars.blocks[0].colouring;
+        let ([first, ..], _) = colouring.live(0);
+        assert!(first.start > colouring.colour(0).start, "the first colour starts with still octets");
+        let freed = skipping.scene(colouring.bars.ends(colouring.colour(0).start).0);
+        weights[freed] = 1.0;
+        for l in [&mut skipping, &mut stale, &mut projecting] {
+            l.set_inverse_mass(freed, 1.0);
+        }
+        stale.weights_changed = false;
+        project_all(&mut projecting);
+        for l in [&mut skipping, &mut stale, &mut projecting] {
+            steps(l, false);
+        }
+        assert!(skipping.bars.still_share().0 < still);
+        assert_eq!(bits(&skipping), bits(&projecting));
+        assert_ne!(bits(&stale), bits(&projecting));
+        // The cloth below the fixed rows moved.
+        let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        skipping.read(&mut x, &mut x_prev);
+        let moved = (0..n).filter(|&i| weights[i] > 0.0 && x[i] != positions[i]).count();
+        assert!(moved > n / 2, "{moved} of {n} moved");
     }
 }
