@@ -194,15 +194,20 @@ impl Colouring {
     }
 
     /// The three octet ranges of independent colour `c` (paired at both
-    /// ends, at end a, the others: each a multiple of eight bars), less
-    /// their still octets, and where the colour's bars after its octets
-    /// start (one at a time).
-    pub(super) fn live(&self, c: usize) -> ([std::ops::Range<usize>; 3], usize) {
+    /// ends, at end a, the others: each a multiple of eight bars), and
+    /// where the colour's bars after its octets start (one at a time).
+    fn octet_ranges(&self, c: usize) -> ([std::ops::Range<usize>; 3], usize) {
         let range = self.colour(c);
         let [both, a_end] = self.paired[c];
         let octets_end = a_end + (range.end - a_end) / 8 * 8;
-        let [s0, s1, s2] = self.still[c].map(|k| 8 * k);
-        ([range.start + s0..both, both + s1..a_end, a_end + s2..octets_end], octets_end)
+        ([range.start..both, both..a_end, a_end..octets_end], octets_end)
+    }
+
+    /// [`Colouring::octet_ranges`] less their still octets: what a pass
+    /// projects.
+    pub(super) fn live(&self, c: usize) -> ([std::ops::Range<usize>; 3], usize) {
+        let (ranges, rest) = self.octet_ranges(c);
+        (std::array::from_fn(|k| ranges[k].start + 8 * self.still[c][k]..ranges[k].end), rest)
     }
 
     /// Counts each octet range's leading octets whose ends all weigh 0
@@ -212,13 +217,11 @@ impl Colouring {
     /// skips nothing new, and a freed particle ends the skip where it is.
     pub(super) fn count_still(&mut self, weight: impl Fn(usize) -> f32) {
         for c in 0..self.independent {
-            let range = self.colour(c);
-            let [both, a_end] = self.paired[c];
-            let octets_end = a_end + (range.end - a_end) / 8 * 8;
+            let (ranges, _) = self.octet_ranges(c);
             let bars = &self.bars;
             let still = |i: usize| (i..i + 8).all(|i| weight(bars.ends(i).0) == 0.0 && weight(bars.ends(i).1) == 0.0);
-            let count = |from: usize, to: usize| (from..to).step_by(8).take_while(|&i| still(i)).count();
-            self.still[c] = [count(range.start, both), count(both, a_end), count(a_end, octets_end)];
+            let counts = ranges.map(|r| r.step_by(8).take_while(|&i| still(i)).count());
+            self.still[c] = counts;
         }
     }
 
