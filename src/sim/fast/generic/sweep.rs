@@ -169,7 +169,8 @@ mod avx2 {
     }
 
     /// The bar columns and the multipliers as pointers, checked once a pass
-    /// to be as long as one another: an octet reads eight of each without
+    /// to be as long as one another (the multipliers' pointer is taken anew
+    /// for each colour, as the particles' rows are): an octet reads eight of each without
     /// a bounds check (the checks, the loop's iterator and the excess when
     /// no tolerance is set were about 30 of an octet's 142 instructions).
     #[derive(Clone, Copy)]
@@ -218,8 +219,9 @@ mod avx2 {
             let mut next = range.start;
             if c < colouring.independent {
                 // Taken anew for each colour: the last colour's bars after
-                // its octets went through `particles` itself.
+                // its octets went through `particles` and `mu` themselves.
                 let rows = particles.as_mut_ptr().cast::<f32>();
+                let cols = Columns { mu: mu.as_mut_ptr(), ..columns };
                 let ([both, a_end, others], rest) = colouring.live(c);
                 // SAFETY (each call): `rows` holds `colouring.particles`
                 // rows (the caller's promise), every end of the colouring is
@@ -227,10 +229,9 @@ mod avx2 {
                 // is), and the colouring lays out the octets paired at both
                 // ends and at end a as `octets_of` requires.
                 unsafe {
-                    let c = columns;
-                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, c, both, sweep));
-                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, c, a_end, sweep));
-                    worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, c, others, sweep));
+                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, cols, both, sweep));
+                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, cols, a_end, sweep));
+                    worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, cols, others, sweep));
                 }
                 next = rest;
             }
