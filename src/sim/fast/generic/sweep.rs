@@ -19,6 +19,12 @@
 //! octets, and the bar columns are read through pointers checked once a
 //! pass: 142 → 126 instructions in an octet paired at both ends.
 //!
+//! A fifth (tablecloth step ~280 → ~262 µs on the same Zen 4): the chain
+//! a division shorter. `perf` put the octet's hottest samples right after
+//! its `vdivps` and `vsqrtps`, i.e. on waits: the division waited on the
+//! square root. The kernel now divides by ℓ² (W) instead, beside the
+//! square root, and multiplies ([`crate::sim::fast::kernel`]'s module docs).
+//!
 //! Why lanes pay here: one bar's projection is a chain of about 60 cycles
 //! (square root, then division) and some 70 instructions, so the CPU's
 //! reorder window holds fewer than three bars at once; one bar took about
@@ -143,7 +149,7 @@ mod avx2 {
 
     use super::{BarColumns, Colouring, Particle, Sweep};
     use crate::sim::fast::avx::{Avx, transpose_pairs, transpose_rows, untranspose_rows};
-    use crate::sim::fast::kernel::{LANES, Point, Real, bar_length, correct_pair, excess};
+    use crate::sim::fast::kernel::{LANES, Point, Real, bar_square, correct_pair, excess};
 
     /// [`super::relax_pass`] with eight bars at a time.
     ///
@@ -273,7 +279,7 @@ mod avx2 {
     }
 
     /// An octet started: its first bar, its ends and weights in lanes, and
-    /// the bars' vectors d and lengths ℓ.
+    /// the bars' vectors d and squared lengths ℓ².
     #[derive(Clone, Copy)]
     struct Started {
         first: usize,
@@ -282,10 +288,10 @@ mod avx2 {
         b: Point<Avx>,
         wb: Avx,
         d: Point<Avx>,
-        len: Avx,
+        square: Avx,
     }
 
-    /// Loads bars `first..first + 8`'s ends and takes their lengths.
+    /// Loads bars `first..first + 8`'s ends and takes their squared lengths.
     ///
     /// # Safety
     /// AVX2 is available; bars `first..first + 8` are within `columns`;
@@ -297,8 +303,8 @@ mod avx2 {
         let (ia, ib) = unsafe { ends(columns, first) };
         // SAFETY: the caller's promise.
         let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
-        let (d, len) = bar_length(&a, &b);
-        Started { first, a, wa, b, wb, d, len }
+        let (d, square) = bar_square(&a, &b);
+        Started { first, a, wa, b, wb, d, square }
     }
 
     /// Projects a started octet and stores its ends; returns its largest
@@ -314,7 +320,7 @@ mod avx2 {
         started: Started,
         sweep: &Sweep,
     ) -> f32 {
-        let Started { first, mut a, wa, mut b, wb, d, len } = started;
+        let Started { first, mut a, wa, mut b, wb, d, square } = started;
         // SAFETY: bars `first..first + 8` are within the columns (the
         // caller's promise); AVX2 is available.
         let rest = unsafe { Avx(_mm256_loadu_ps(columns.rest.add(first))) };
@@ -324,7 +330,7 @@ mod avx2 {
         // SAFETY: as above.
         let mut mu8 = if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
         let omega = Avx::splat(sweep.omega);
-        let v = correct_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, d, len, rest, &mut mu8, beta, omega);
+        let v = correct_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
         // SAFETY: the caller's promise.
         unsafe {
             if XPBD {
