@@ -22,6 +22,7 @@ mod pairs;
 mod sweep;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::kernel::{Point, integrate, settle, tether};
 use crate::sim::contact::ContactStep;
@@ -69,14 +70,65 @@ struct Renumbering {
     slot: Vec<u32>,
 }
 
+/// Particles a task of the thread pool takes in the phases that go
+/// particle by particle (integrate, settle, read, the finiteness check).
+const CHUNK: usize = 4096;
+
+/// Whether every `f32` of `rows` is finite: x · 0 is 0 for a finite x and
+/// NaN otherwise, and one NaN makes its lane's sum NaN. Sixteen sums, so
+/// the loop runs in SIMD lanes without a branch an element (the rows' w,
+/// the inverse mass, is finite too).
+fn rows_are_finite(rows: &[f32]) -> bool {
+    let mut sums = [0.0f32; 16];
+    let whole = rows.chunks_exact(16);
+    let tail = whole.remainder();
+    for block in whole {
+        for (s, v) in sums.iter_mut().zip(block) {
+            *s += v * 0.0;
+        }
+    }
+    for (s, v) in sums.iter_mut().zip(tail) {
+        *s += v * 0.0;
+    }
+    sums.iter().all(|s| *s == 0.0)
+}
+
 impl GenericLayout {
     /// Positions x and x − d in scene order, each as `to` makes it.
-    fn read_as<T>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T) {
-        for (k, (p, d)) in self.particles.iter().zip(&self.displacement).enumerate() {
-            let i = self.scene(k);
-            let x = Vec3::from_array(p.position);
-            positions[i] = to(x);
-            previous[i] = to(x - Vec3::from_array(*d));
+    /// In chunks of scene order, on the thread pool when the passes use it
+    /// (each particle read alone: the same bits).
+    fn read_as<T: Send>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T + Sync) {
+        let chunk = |(c, (positions, previous)): (usize, (&mut [T], &mut [T]))| {
+            for (j, (x, x_prev)) in positions.iter_mut().zip(previous).enumerate() {
+                let k = self.slot(c * CHUNK + j);
+                let p = Vec3::from_array(self.particles[k].position);
+                *x = to(p);
+                *x_prev = to(p - Vec3::from_array(self.displacement[k]));
+            }
+        };
+        if self.uses_pool() {
+            positions.par_chunks_mut(CHUNK).zip(previous.par_chunks_mut(CHUNK)).enumerate().for_each(chunk);
+        } else {
+            positions.chunks_mut(CHUNK).zip(previous.chunks_mut(CHUNK)).enumerate().for_each(chunk);
+        }
+    }
+
+    /// `f` on every particle, its displacement d and its predicted
+    /// position, in chunks, on the thread pool when the passes use it
+    /// (each particle alone: the same bits on any thread count).
+    fn each_particle(&mut self, f: impl Fn(&mut Particle, &mut [f32; 3], &mut [f32; 3]) + Sync) {
+        type Chunk<'a> = ((&'a mut [Particle], &'a mut [[f32; 3]]), &'a mut [[f32; 3]]);
+        let chunk = |((p, d), q): Chunk| {
+            for ((p, d), q) in p.iter_mut().zip(d).zip(q) {
+                f(p, d, q);
+            }
+        };
+        if self.uses_pool() {
+            let (p, d) = (self.particles.par_chunks_mut(CHUNK), self.displacement.par_chunks_mut(CHUNK));
+            p.zip(d).zip(self.predicted.par_chunks_mut(CHUNK)).for_each(chunk);
+        } else {
+            let (p, d) = (self.particles.chunks_mut(CHUNK), self.displacement.chunks_mut(CHUNK));
+            p.zip(d).zip(self.predicted.chunks_mut(CHUNK)).for_each(chunk);
         }
     }
 
@@ -184,9 +236,7 @@ impl Solver for GenericLayout {
             }
             None => (s.keep, s.accel.to_array(), s.gravity.to_array()),
         };
-        for ((p, d), q) in self.particles.iter_mut().zip(&mut self.displacement).zip(&mut self.predicted) {
-            *q = integrate(&mut p.position, d, p.weight, keep, accel, gravity);
-        }
+        self.each_particle(|p, d, q| *q = integrate(&mut p.position, d, p.weight, keep, accel, gravity));
     }
 
     fn push(&mut self, displacement: &[Vec3]) {
@@ -265,9 +315,7 @@ impl Solver for GenericLayout {
     }
 
     fn settle(&mut self) {
-        for ((p, d), q) in self.particles.iter().zip(&mut self.displacement).zip(&self.predicted) {
-            settle(d, p.position, *q, p.weight);
-        }
+        self.each_particle(|p, d, q| settle(d, p.position, *q, p.weight));
     }
 
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
@@ -306,7 +354,19 @@ impl Solver for GenericLayout {
         };
     }
 
+    /// A scan of the rows in the layout's order (in chunks on the pool when
+    /// the passes use it); only when one is not finite, a search in scene
+    /// order for the first.
     fn first_non_finite(&self) -> Option<usize> {
+        let finite = |chunk: &[Particle]| rows_are_finite(bytemuck::cast_slice(chunk));
+        let all = if self.uses_pool() {
+            self.particles.par_chunks(CHUNK).all(finite)
+        } else {
+            self.particles.chunks(CHUNK).all(finite)
+        };
+        if all {
+            return None;
+        }
         (0..self.particles.len()).find(|&i| !self.particles[self.slot(i)].position.iter().all(|c| c.is_finite()))
     }
 
@@ -346,213 +406,4 @@ impl Solver for GenericLayout {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sim::mesh::ClothMesh;
-
-    /// An n × n triangulated sheet (spacing 0.1 m, a little crumpled) whose
-    /// particles are numbered in a shuffled order, as subdivision leaves an
-    /// OBJ's vertices: positions and bars.
-    fn shuffled_sheet(n: u32) -> (Vec<Vec3>, Vec<Bar>) {
-        let count = (n * n) as usize;
-        // Fisher–Yates with a fixed linear congruential sequence.
-        let mut new_index: Vec<u32> = (0..n * n).collect();
-        let mut state = 12345u64;
-        for i in (1..count).rev() {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            new_index.swap(i, (state >> 33) as usize % (i + 1));
-        }
-        let mut positions = vec![Vec3::ZERO; count];
-        for (i, &to) in new_index.iter().enumerate() {
-            let (c, r) = ((i as u32 % n) as f32, (i as u32 / n) as f32);
-            positions[to as usize] = Vec3::new(c * 0.1, -r * 0.1, 0.02 * (c * 1.3 + r * 0.7).sin());
-        }
-        let mut triangles = Vec::new();
-        for r in 0..n - 1 {
-            for c in 0..n - 1 {
-                let i = r * n + c;
-                let [a, b, d, e] = [i, i + 1, i + n, i + n + 1].map(|v| new_index[v as usize]);
-                triangles.extend([[a, d, e], [a, e, b]]);
-            }
-        }
-        let mesh = ClothMesh::from_triangles(positions.clone(), triangles, &[], None).expect("valid sheet");
-        (positions, mesh.bars().to_vec())
-    }
-
-    #[test]
-    fn a_shuffled_mesh_is_renumbered_and_moves_as_if_it_were_not() {
-        // 130 × 130 = 16 900 particles: two blocks.
-        let (positions, bars) = shuffled_sheet(130);
-        let n = positions.len();
-        // In the shuffled order nearly every bar would cross between the two
-        // blocks (half of them, for random numbers); renumbered, few do.
-        let (scene_boundary, all) = BlockedBars::new(&bars, n, &vec![false; n]).boundary_share();
-        assert!(scene_boundary * 3 > all, "scene order: boundary {scene_boundary} of {all}");
-        // Fixed particles here and there, unequal masses, tethers to particle 0.
-        let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { [1.0, 0.5, 0.25][i % 3] }).collect();
-        let tethers = Tethers {
-            anchor: (0..n).map(|i| (i % 5 == 1).then_some(0)).collect(),
-            length: (0..n).map(|i| if i % 5 == 1 { positions[i].distance(positions[0]) * 1.01 } else { 0.0 }).collect(),
-        };
-        let shuffled = GenericLayout::new(&positions, &positions, &weights, &bars, Some(tethers.clone()));
-        let Some(r) = shuffled.renumbering.clone() else { panic!("not renumbered") };
-        assert!(shuffled.breadth_first);
-        let (boundary, _) = shuffled.bars.boundary_share();
-        assert!(boundary * 20 < all, "renumbered: boundary {boundary} of {all}");
-
-        // The same mesh numbered in the layout's order from the start (bars
-        // in the same creation order) and laid out in that order: its
-        // layout holds the same arrays, so every phase must give the same
-        // bits, particle for particle, if the renumbering is applied on
-        // every way in and out.
-        let at = |i: u32| r.slot[i as usize];
-        let ordered_positions: Vec<Vec3> = r.scene.iter().map(|&i| positions[i as usize]).collect();
-        let ordered_weights: Vec<f32> = r.scene.iter().map(|&i| weights[i as usize]).collect();
-        let ordered_bars: Vec<Bar> = bars.iter().map(|b| Bar { a: at(b.a), b: at(b.b), ..*b }).collect();
-        let ordered_tethers = Tethers {
-            anchor: r.scene.iter().map(|&i| tethers.anchor[i as usize].map(at)).collect(),
-            length: r.scene.iter().map(|&i| tethers.length[i as usize]).collect(),
-        };
-        let ordered = GenericLayout::in_order(
-            &ordered_positions,
-            &ordered_positions,
-            &ordered_weights,
-            &ordered_bars,
-            Some(ordered_tethers),
-            None,
-        );
-
-        let velocity: Vec<Vec3> = (0..n).map(|i| Vec3::new(0.0, 0.0, (i % 7) as f32 * 0.01)).collect();
-        let ordered_velocity: Vec<Vec3> = r.scene.iter().map(|&i| velocity[i as usize]).collect();
-        let push: Vec<Vec3> = (0..n).map(|i| Vec3::new((i % 11) as f32 * 1e-4, 0.0, 0.0)).collect();
-        let ordered_push: Vec<Vec3> = r.scene.iter().map(|&i| push[i as usize]).collect();
-        let substep = |first| Substep {
-            dt: 0.01,
-            keep: 0.98,
-            accel: Vec3::new(0.0, 0.0, 1e-4),
-            gravity: Vec3::new(0.0, -9.8e-4, 0.0),
-            first,
-            relaxations: 5,
-            tolerance: 0.0,
-            over_relaxation: 1.0,
-            stretch_beta: 0.1,
-            bend_beta: 1.0,
-            shear_beta: 0.1,
-            tether_slack: Some(0.0),
-        };
-        let (mut a, mut b) = (shuffled, ordered);
-        for step in 0..3 {
-            a.integrate(&substep((step == 0).then_some((&velocity[..], Vec3::ZERO))));
-            b.integrate(&substep((step == 0).then_some((&ordered_velocity[..], Vec3::ZERO))));
-            a.push(&push);
-            b.push(&ordered_push);
-            assert_eq!(a.relax(&substep(None)), b.relax(&substep(None)));
-            a.settle();
-            b.settle();
-        }
-        a.set_inverse_mass(5, 0.0);
-        b.set_inverse_mass(at(5) as usize, 0.0);
-        a.set_particle(7, Vec3::ONE, Vec3::ONE);
-        b.set_particle(at(7) as usize, Vec3::ONE, Vec3::ONE);
-        let read = |l: &GenericLayout| {
-            let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-            l.read(&mut x, &mut x_prev);
-            (x, x_prev)
-        };
-        let ((xa, pa), (xb, pb)) = (read(&a), read(&b));
-        for i in 0..n {
-            let k = at(i as u32) as usize;
-            assert_eq!(xa[i].to_array().map(f32::to_bits), xb[k].to_array().map(f32::to_bits), "particle {i}");
-            assert_eq!(pa[i].to_array().map(f32::to_bits), pb[k].to_array().map(f32::to_bits), "particle {i}");
-        }
-        assert_eq!(xa[7], Vec3::ONE);
-        // The sheet moved (the velocity, the push and the wind).
-        assert!(xa.iter().zip(&positions).filter(|(x, p)| x != p).count() > n / 2);
-        a.set_particle(11, Vec3::NAN, Vec3::ZERO);
-        assert_eq!(a.first_non_finite(), Some(11));
-    }
-
-    #[test]
-    fn octets_between_fixed_particles_are_skipped_with_the_bits_of_projecting_them() {
-        // A 40 × 40 sheet whose first 12 of 40 rows are fixed (y = −0.1 r,
-        // so y > −1.15): 30 % of the particles, and some 1 000 bars with
-        // both ends among them, which move nothing when projected.
-        let (positions, bars) = shuffled_sheet(40);
-        let n = positions.len();
-        let mut weights: Vec<f32> = positions.iter().map(|p| if p.y > -1.15 { 0.0 } else { 1.0 }).collect();
-        let skipping = GenericLayout::new(&positions, &positions, &weights, &bars, None);
-        let (still, all) = skipping.bars.still_share();
-        assert!(still > all / 10, "{still} of {all} bars skipped");
-        // The same layout projecting every bar: no octet counted still.
-        let project_all = |l: &mut GenericLayout| {
-            let free: Vec<Particle> = l.particles.iter().map(|p| Particle { weight: 1.0, ..*p }).collect();
-            l.bars.count_still(&free);
-            l.weights_changed = false;
-        };
-        let mut projecting = skipping.clone();
-        project_all(&mut projecting);
-        assert_eq!(projecting.bars.still_share().0, 0);
-
-        let substep = |first| Substep {
-            dt: 0.01,
-            keep: 0.98,
-            accel: Vec3::new(0.0, 0.0, 1e-4),
-            gravity: Vec3::new(0.0, -9.8e-4, 0.0),
-            first,
-            relaxations: 5,
-            tolerance: 0.0,
-            over_relaxation: 1.0,
-            stretch_beta: 0.1,
-            bend_beta: 1.0,
-            shear_beta: 0.1,
-            tether_slack: None,
-        };
-        let velocity = vec![Vec3::new(0.0, 0.0, 0.01); n];
-        let steps = |l: &mut GenericLayout, first: bool| {
-            for step in 0..3 {
-                l.integrate(&substep((first && step == 0).then_some((&velocity[..], Vec3::ZERO))));
-                l.relax(&substep(None));
-                l.settle();
-            }
-        };
-        // The bits of every coordinate, but for the sign of a zero: a
-        // projection adds w c d = ±0 to a fixed end, which turns a −0 (a
-        // row's y = −0.1 · 0 here) into +0, and a skipped one leaves it.
-        let bits = |l: &GenericLayout| {
-            let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-            l.read(&mut x, &mut x_prev);
-            x.iter().chain(&x_prev).flat_map(|p| p.to_array().map(|c| (c + 0.0).to_bits())).collect::<Vec<u32>>()
-        };
-        let (mut skipping, mut stale) = (skipping.clone(), skipping);
-        for l in [&mut skipping, &mut stale, &mut projecting] {
-            steps(l, true);
-        }
-        assert_eq!(bits(&skipping), bits(&projecting));
-
-        // Free a particle at an end of the first skipped octet: its bars
-        // move again, so the skip must end there. `stale` is not told (its
-        // still octets stay as counted): it must then differ, which shows
-        // the freed particle's bars were skipped before.
-        let colouring = &skipping.bars.blocks[0].colouring;
-        let ([first, ..], _) = colouring.live(0);
-        assert!(first.start > colouring.colour(0).start, "the first colour starts with still octets");
-        let freed = skipping.scene(colouring.bars.ends(colouring.colour(0).start).0);
-        weights[freed] = 1.0;
-        for l in [&mut skipping, &mut stale, &mut projecting] {
-            l.set_inverse_mass(freed, 1.0);
-        }
-        stale.weights_changed = false;
-        project_all(&mut projecting);
-        for l in [&mut skipping, &mut stale, &mut projecting] {
-            steps(l, false);
-        }
-        assert!(skipping.bars.still_share().0 < still);
-        assert_eq!(bits(&skipping), bits(&projecting));
-        assert_ne!(bits(&stale), bits(&projecting));
-        // The cloth below the fixed rows moved.
-        let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-        skipping.read(&mut x, &mut x_prev);
-        let moved = (0..n).filter(|&i| weights[i] > 0.0 && x[i] != positions[i]).count();
-        assert!(moved > n / 2, "{moved} of {n} moved");
-    }
-}
+mod tests;
