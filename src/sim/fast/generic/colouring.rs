@@ -1,4 +1,5 @@
-//! The bars of the coloured layout: greedy colours, in blocks of particles.
+//! The bars of one group of the coloured layout ([`super::blocks`]) in
+//! greedy colours.
 //!
 //! **Colours.** The bars are grouped into units of one bar or two
 //! ([`pairs`]); every unit gets the smallest colour not yet used by a unit
@@ -16,33 +17,9 @@
 //! is written). A pin stays a write: pinning elsewhere skips nothing new,
 //! and freeing a particle ends the skip at its octet. On the tablecloth
 //! (its table top fixed) the pass skips 952 of its 10 368 bars.
-//!
-//! **Blocks.** A mesh of more than [`BLOCK_PARTICLES`] particles is cut into
-//! blocks of consecutive particle indices, each at most that many (256 KiB
-//! of particles, which stay in a core's L2 cache while its colours are
-//! swept), as many as the next multiple of [`THREAD_SHARES`]. A bar with
-//! both ends in one block belongs to that block; the others, the boundary,
-//! form a last group of their own. A pass relaxes every block (in parallel
-//! on the rayon pool: blocks share no particle), then the boundary. The cut
-//! depends on the particle count only, so every thread count computes the
-//! same bits. Meshes whose vertex order is local (rows of a sheet, rings of
-//! the tablecloth) keep the boundary small: 1.8 % of the bars of a 320 ×
-//! 320 sheet. When the scene's order puts more than 1 bar in 20 on the
-//! boundary (a mesh whose vertices jump around, as
-//! subdivision leaves them), the layout renumbers the particles in
-//! [`super::order::breadth_first_order`] and keeps that if its boundary is
-//! smaller. Blocks start at an even index, on a dimer.
 
-use rayon::prelude::*;
-
-use super::Particle;
 use super::pairs::{self, Class, Oriented, Unit};
-use super::sweep::{Sweep, relax_pass};
-use crate::sim::fast::THREAD_SHARES;
 use crate::sim::mesh::Bar;
-
-/// Most particles in a block (16 bytes each: 256 KiB).
-pub(super) const BLOCK_PARTICLES: usize = 16_384;
 
 /// Most colours tracked; bars that find none free go in one last group, which
 /// is still a correct Gauss–Seidel sweep, only not free of dependencies.
@@ -105,7 +82,7 @@ impl Colouring {
     /// unit at any of its particles has (in unit order), then within a
     /// colour the units of each [`Class`] in turn, four to an octet, those
     /// whose particles are all `fixed` (indexed less `first`) first.
-    fn new(bars: &[&Bar], first: u32, particles: usize, fixed: &[bool]) -> Self {
+    pub(super) fn new(bars: &[&Bar], first: u32, particles: usize, fixed: &[bool]) -> Self {
         assert!(particles <= (u32::MAX / ROW) as usize, "{particles} particles: a row offset would not fit 32 bits");
         let ends: Vec<(u32, u32)> = bars.iter().map(|b| (b.a - first, b.b - first)).collect();
         let units = pairs::units(&ends, particles);
@@ -254,136 +231,6 @@ impl Colouring {
     pub(super) fn colour(&self, c: usize) -> std::ops::Range<usize> {
         let start = if c == 0 { 0 } else { self.ends[c - 1] };
         start..self.ends[c]
-    }
-}
-
-/// Coloured bars and their multipliers μ = βλ (in colour order).
-#[derive(Clone, Debug, Default)]
-pub(super) struct Group {
-    pub(super) colouring: Colouring,
-    pub(super) multipliers: Vec<f32>,
-}
-
-impl Group {
-    fn new(bars: &[&Bar], first: u32, particles: usize, fixed: &[bool]) -> Self {
-        Group { colouring: Colouring::new(bars, first, particles, fixed), multipliers: vec![0.0; bars.len()] }
-    }
-}
-
-/// Every bar of the layout: the blocks' and the boundary's.
-#[derive(Clone, Debug)]
-pub(super) struct BlockedBars {
-    /// Particles per block (the last may have fewer).
-    block_size: usize,
-    /// Block k holds the bars within particles `k·block_size..`, indexed
-    /// from its first particle.
-    pub(super) blocks: Vec<Group>,
-    /// Bars between blocks (global indices).
-    pub(super) boundary: Group,
-}
-
-impl BlockedBars {
-    /// How many blocks `particles` particles make, and the particles in
-    /// each (even: a block starts on a dimer, two rows of one 32-byte load).
-    fn cut(particles: usize) -> (usize, usize) {
-        let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
-        let count = if count > 1 { count.next_multiple_of(THREAD_SHARES) } else { 1 };
-        (count, particles.div_ceil(count).next_multiple_of(2).max(2))
-    }
-
-    /// How many of `bars` would join two blocks (without colouring them).
-    pub(super) fn boundary_count(bars: &[Bar], particles: usize) -> usize {
-        let (_, block_size) = Self::cut(particles);
-        bars.iter().filter(|b| b.a as usize / block_size != b.b as usize / block_size).count()
-    }
-
-    /// The layout's bars, the still ones of each class first where
-    /// `fixed` (by particle) holds both their ends.
-    pub(super) fn new(bars: &[Bar], particles: usize, fixed: &[bool]) -> Self {
-        let (count, block_size) = Self::cut(particles);
-        let mut inside: Vec<Vec<&Bar>> = vec![Vec::new(); count];
-        let mut boundary = Vec::new();
-        for bar in bars {
-            let (ka, kb) = (bar.a as usize / block_size, bar.b as usize / block_size);
-            if ka == kb { inside[ka].push(bar) } else { boundary.push(bar) }
-        }
-        let blocks = inside
-            .iter()
-            .enumerate()
-            .map(|(k, bars)| {
-                let first = k * block_size;
-                Group::new(bars, first as u32, block_size.min(particles.saturating_sub(first)), &fixed[first..])
-            })
-            .collect();
-        BlockedBars { block_size, blocks, boundary: Group::new(&boundary, 0, particles, fixed) }
-    }
-
-    /// [`Colouring::count_still`] for every group, from the particles'
-    /// weights.
-    pub(super) fn count_still(&mut self, particles: &[Particle]) {
-        for (k, group) in self.blocks.iter_mut().enumerate() {
-            let first = k * self.block_size;
-            group.colouring.count_still(|i| particles[first + i].weight);
-        }
-        self.boundary.colouring.count_still(|i| particles[i].weight);
-    }
-
-    /// Bars a pass skips (all ends fixed), and in all.
-    pub(super) fn still_share(&self) -> (usize, usize) {
-        let still = self.blocks.iter().chain([&self.boundary]).map(|g| g.colouring.still_bars()).sum();
-        (still, self.boundary_share().1)
-    }
-
-    /// The most colours of any block, and of the boundary.
-    pub(super) fn colours(&self) -> (usize, usize) {
-        let blocks = self.blocks.iter().map(|b| b.colouring.colours()).max().unwrap_or(0);
-        (blocks, self.boundary.colouring.colours())
-    }
-
-    /// Bars in octets paired at both ends and at end a, and in all.
-    pub(super) fn paired_share(&self) -> ([usize; 2], usize) {
-        let mut paired = [0; 2];
-        for colouring in self.blocks.iter().chain([&self.boundary]).map(|g| &g.colouring) {
-            for c in 0..colouring.independent {
-                let [both, a_end] = colouring.paired[c];
-                paired[0] += both - colouring.colour(c).start;
-                paired[1] += a_end - both;
-            }
-        }
-        (paired, self.boundary_share().1)
-    }
-
-    /// Bars in the boundary, and in all.
-    pub(super) fn boundary_share(&self) -> (usize, usize) {
-        let all = self.blocks.iter().map(|b| b.multipliers.len()).sum::<usize>() + self.boundary.multipliers.len();
-        (self.boundary.multipliers.len(), all)
-    }
-
-    /// Zeroes every μ (the start of a substep).
-    pub(super) fn reset_multipliers(&mut self) {
-        for group in self.blocks.iter_mut().chain([&mut self.boundary]) {
-            group.multipliers.fill(0.0);
-        }
-    }
-
-    /// One pass: every block (in parallel when the pool has threads), then
-    /// the boundary. Returns the largest excess ([`relax_pass`]).
-    pub(super) fn relax_pass(&mut self, particles: &mut [Particle], sweep: &Sweep) -> f32 {
-        let relax = |(p, group): (&mut [Particle], &mut Group)| {
-            relax_pass(p, &group.colouring, &mut group.multipliers, sweep, true)
-        };
-        let inside = if self.blocks.len() > 1 && rayon::current_num_threads() > 1 {
-            let pairs = particles.par_chunks_mut(self.block_size).zip(self.blocks.par_iter_mut());
-            pairs.map(relax).reduce(|| f32::NEG_INFINITY, f32::max)
-        } else {
-            particles
-                .chunks_mut(self.block_size)
-                .zip(self.blocks.iter_mut())
-                .map(relax)
-                .fold(f32::NEG_INFINITY, f32::max)
-        };
-        let boundary = relax_pass(particles, &self.boundary.colouring, &mut self.boundary.multipliers, sweep, true);
-        inside.max(boundary)
     }
 }
 

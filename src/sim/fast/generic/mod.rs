@@ -16,6 +16,7 @@
 //! sweep loads and stores as one 32-byte access where it took two and a
 //! shuffle.
 
+mod blocks;
 mod colouring;
 mod order;
 mod pairs;
@@ -30,7 +31,7 @@ use crate::sim::mesh::Bar;
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
-use colouring::BlockedBars;
+use blocks::BlockedBars;
 use sweep::Sweep;
 
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -392,8 +393,12 @@ impl Solver for GenericLayout {
             blocks => {
                 let (boundary, all) = self.bars.boundary_share();
                 let order = if self.breadth_first { "particles renumbered breadth-first, " } else { "" };
+                let far = match self.bars.far_bars() {
+                    0 => String::new(),
+                    far => format!(", {far} of them between blocks further apart (one thread)"),
+                };
                 format!(
-                    "coloured: {order}{blocks} blocks of ≤ {colours} colours on {} threads, {lanes}; boundary {boundary} of {all} bars in {boundary_colours} colours",
+                    "coloured: {order}{blocks} blocks of ≤ {colours} colours on {} threads, {lanes}; boundary {boundary} of {all} bars in seams of ≤ {boundary_colours} colours{far}",
                     rayon::current_num_threads()
                 )
             }

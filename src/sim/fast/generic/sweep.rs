@@ -521,14 +521,29 @@ mod tests {
     }
 
     #[test]
-    fn blocks_give_the_same_bits_on_one_thread_and_on_two() {
+    fn blocks_and_seams_give_the_same_bits_on_one_thread_and_on_two() {
         // 130 × 130 = 16 900 particles, more than one block holds: four
-        // blocks (a multiple of four) and a boundary between them; unequal
-        // masses and compliant bars as above.
-        let (positions, bars) = crumpled_sheet(130);
-        let weights: Vec<f32> = (0..positions.len()).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
-        let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
+        // blocks (a multiple of four) and three seams between them; unequal
+        // masses and compliant bars as above. Four more bars join the first
+        // row to the last (blocks 0 and 3, not neighbours), each 10 % longer
+        // than its rest length: the group relaxed on one thread.
+        let (positions, mut bars) = crumpled_sheet(130);
+        let n = positions.len();
+        let far: Vec<(u32, u32)> = (0..4).map(|c| (c * 40, 129 * 130 + c * 40 + 1)).collect();
+        for &(a, b) in &far {
+            let rest_length = positions[a as usize].distance(positions[b as usize]) / 1.1;
+            bars.push(crate::sim::mesh::Bar { a, b, rest_length, kind: crate::sim::BarKind::Bend });
+        }
+        let weights: Vec<f32> = (0..n).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
+        let weights: Vec<f32> = weights
+            .iter()
+            .enumerate()
+            .map(|(i, &w)| if far.iter().any(|f| f.0 as usize == i) { 1.0 } else { w })
+            .collect();
+        // In the scene's order (rows), so that the far bars stay far.
+        let layout = GenericLayout::in_order(&positions, &positions, &weights, &bars, None, None);
         assert_eq!(layout.bars.blocks.len(), 4);
+        assert_eq!(layout.bars.far_bars(), 4);
         let (boundary, all) = layout.bars.boundary_share();
         // Three cuts, each along a row of 130 particles: at least its bars to
         // the next row, and far fewer than 1 bar in 20.
@@ -542,19 +557,25 @@ mod tests {
                     l.bars.relax_pass(&mut l.particles, &sweep);
                 }
             });
-            let multipliers = l.bars.blocks.iter().chain([&l.bars.boundary]).flat_map(|g| g.multipliers.clone());
-            l.particles
+            let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            crate::sim::step::Solver::read(&l, &mut x, &mut x_prev);
+            let bits = l
+                .particles
                 .iter()
                 .flat_map(|p| p.position.map(f32::to_bits))
-                .chain(multipliers.map(f32::to_bits))
-                .collect::<Vec<u32>>()
+                .chain(l.bars.multipliers().map(f32::to_bits))
+                .collect::<Vec<u32>>();
+            (bits, x)
         };
-        let one = run(1);
-        assert_eq!(one, run(2));
-        // The passes moved the sheet.
-        assert_ne!(
-            one[..positions.len() * 3],
-            positions.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>()[..]
-        );
+        let (one, x) = run(1);
+        assert_eq!(one, run(2).0);
+        // The passes moved the sheet, and each far bar got shorter (its free
+        // end at row 0 pulled toward the last row).
+        assert_ne!(x, positions);
+        for &(a, b) in &far {
+            let (before, after) =
+                (positions[a as usize].distance(positions[b as usize]), x[a as usize].distance(x[b as usize]));
+            assert!(after < before - 0.01, "far bar {a}–{b}: {before} → {after}");
+        }
     }
 }

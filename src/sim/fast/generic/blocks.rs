@@ -1,0 +1,306 @@
+//! The coloured layout's bars in groups over blocks of particles.
+//!
+//! A mesh of more than [`BLOCK_PARTICLES`] particles is cut into blocks of
+//! consecutive particle indices, each at most that many (256 KiB of
+//! particles, which stay in a core's L2 cache while its colours are
+//! swept), as many as the next multiple of [`THREAD_SHARES`]. Each group's
+//! bars are coloured on their own ([`super::colouring`]):
+//!
+//! - a bar with both ends in block k belongs to block k;
+//! - a bar between blocks k and k + 1 to seam k, coloured over those two
+//!   blocks' particles;
+//! - the rare bar between blocks further apart to a last group.
+//!
+//! A pass relaxes every block (in parallel on the rayon pool: blocks share
+//! no particle), then the seams after even blocks (in parallel: seam k
+//! touches blocks k and k + 1 only), then those after odd blocks, then the
+//! last group on one thread. The bars between blocks had been one group
+//! relaxed on one thread while the other idled (2.3 % of disc-183's bars,
+//! 35–65 µs a pass on two threads of host D); in seams, disc-183's step on
+//! two threads went from 9.9–15.4 ms to 9.2–12.3 ms (five alternated
+//! pairs, each seams' run the shorter). The cut depends on the particle
+//! count only, so every thread count computes the same bits.
+//!
+//! Meshes whose vertex order is local (rows of a sheet, rings of the
+//! tablecloth) keep the bars between blocks few: 1.8 % of the bars of a
+//! 320 × 320 sheet. When the scene's order puts more than 1 bar in 20
+//! between blocks (a mesh whose vertices jump around, as subdivision leaves
+//! them), the layout renumbers the particles in
+//! [`super::order::breadth_first_order`] and keeps that if fewer bars then
+//! cross. Blocks start at an even index, on a dimer.
+
+use rayon::prelude::*;
+
+use super::Particle;
+use super::colouring::Colouring;
+use super::sweep::{Sweep, relax_pass};
+use crate::sim::fast::THREAD_SHARES;
+use crate::sim::mesh::Bar;
+
+/// Most particles in a block (16 bytes each: 256 KiB).
+pub(super) const BLOCK_PARTICLES: usize = 16_384;
+
+/// Coloured bars and their multipliers μ = βλ (in colour order), over the
+/// particles from `first` on.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Group {
+    pub(super) colouring: Colouring,
+    pub(super) multipliers: Vec<f32>,
+    /// The first particle its ends index (they are numbered from it).
+    first: usize,
+}
+
+impl Group {
+    fn new(bars: &[&Bar], first: usize, particles: usize, fixed: &[bool]) -> Self {
+        let colouring = Colouring::new(bars, first as u32, particles, &fixed[first..]);
+        Group { colouring, multipliers: vec![0.0; bars.len()], first }
+    }
+
+    /// One pass over `particles`, the ones the group's ends index (from its
+    /// first).
+    fn relax(&mut self, particles: &mut [Particle], sweep: &Sweep) -> f32 {
+        relax_pass(particles, &self.colouring, &mut self.multipliers, sweep, true)
+    }
+}
+
+/// Every bar of the layout: the blocks', the seams' between neighbouring
+/// blocks, and any others'.
+#[derive(Clone, Debug)]
+pub(super) struct BlockedBars {
+    /// Particles per block (the last may have fewer).
+    block_size: usize,
+    /// Block k holds the bars within particles `k·block_size..`, indexed
+    /// from its first particle.
+    pub(super) blocks: Vec<Group>,
+    /// Seam k holds the bars between blocks k and k + 1, indexed from block
+    /// k's first particle; `seams[0]` the seams after even blocks, which
+    /// share no particle with one another, `seams[1]` those after odd ones.
+    seams: [Vec<Group>; 2],
+    /// Bars between blocks further apart (global indices): none in a mesh
+    /// whose order is local.
+    far: Group,
+}
+
+/// Applies `relax` to each group with the particles it indexes:
+/// consecutive runs of `span` particles, the first `skip` left out, on the
+/// thread pool when `parallel` (the runs share no particle). Returns the
+/// largest excess (max is order-free: the same on any thread count).
+fn relax_runs(
+    particles: &mut [Particle],
+    groups: &mut [Group],
+    skip: usize,
+    span: usize,
+    parallel: bool,
+    sweep: &Sweep,
+) -> f32 {
+    let skip = skip.min(particles.len());
+    let particles = &mut particles[skip..];
+    let relax = |(p, group): (&mut [Particle], &mut Group)| group.relax(p, sweep);
+    if parallel && groups.len() > 1 {
+        particles.par_chunks_mut(span).zip(groups.par_iter_mut()).map(relax).reduce(|| f32::NEG_INFINITY, f32::max)
+    } else {
+        particles.chunks_mut(span).zip(groups.iter_mut()).map(relax).fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+impl BlockedBars {
+    /// How many blocks `particles` particles make, and the particles in
+    /// each (even: a block starts on a dimer, two rows of one 32-byte load).
+    fn cut(particles: usize) -> (usize, usize) {
+        let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
+        let count = if count > 1 { count.next_multiple_of(THREAD_SHARES) } else { 1 };
+        (count, particles.div_ceil(count).next_multiple_of(2).max(2))
+    }
+
+    /// How many of `bars` would join two blocks (without colouring them).
+    pub(super) fn boundary_count(bars: &[Bar], particles: usize) -> usize {
+        let (_, block_size) = Self::cut(particles);
+        bars.iter().filter(|b| b.a as usize / block_size != b.b as usize / block_size).count()
+    }
+
+    /// The layout's bars, the still ones of each class first where
+    /// `fixed` (by particle) holds both their ends.
+    pub(super) fn new(bars: &[Bar], particles: usize, fixed: &[bool]) -> Self {
+        let (count, block_size) = Self::cut(particles);
+        let mut inside: Vec<Vec<&Bar>> = vec![Vec::new(); count];
+        let mut seams: Vec<Vec<&Bar>> = vec![Vec::new(); count.saturating_sub(1)];
+        let mut far = Vec::new();
+        for bar in bars {
+            let (ka, kb) = (bar.a as usize / block_size, bar.b as usize / block_size);
+            match ka.abs_diff(kb) {
+                0 => inside[ka].push(bar),
+                1 => seams[ka.min(kb)].push(bar),
+                _ => far.push(bar),
+            }
+        }
+        // Particles from block k's first: `blocks` blocks' worth, or to the end.
+        let span = |k: usize, blocks: usize| (blocks * block_size).min(particles.saturating_sub(k * block_size));
+        let group =
+            |(k, bars): (usize, &Vec<&Bar>), blocks: usize| Group::new(bars, k * block_size, span(k, blocks), fixed);
+        let blocks = inside.iter().enumerate().map(|b| group(b, 1)).collect();
+        let mut paired: [Vec<Group>; 2] = [Vec::new(), Vec::new()];
+        for (k, bars) in seams.iter().enumerate() {
+            paired[k % 2].push(group((k, bars), 2));
+        }
+        BlockedBars { block_size, blocks, seams: paired, far: Group::new(&far, 0, particles, fixed) }
+    }
+
+    /// Every group: blocks, seams, the far bars.
+    fn groups(&self) -> impl Iterator<Item = &Group> {
+        self.blocks.iter().chain(self.seams.iter().flatten()).chain([&self.far])
+    }
+
+    /// The bars between blocks: the seams and the far bars.
+    fn between(&self) -> impl Iterator<Item = &Group> {
+        self.seams.iter().flatten().chain([&self.far])
+    }
+
+    /// [`Colouring::count_still`] for every group, from the particles'
+    /// weights.
+    pub(super) fn count_still(&mut self, particles: &[Particle]) {
+        let blocks = self.blocks.iter_mut().chain(self.seams.iter_mut().flatten());
+        for group in blocks.chain([&mut self.far]) {
+            let first = group.first;
+            group.colouring.count_still(|i| particles[first + i].weight);
+        }
+    }
+
+    /// Bars a pass skips (all ends fixed), and in all.
+    pub(super) fn still_share(&self) -> (usize, usize) {
+        let still = self.groups().map(|g| g.colouring.still_bars()).sum();
+        (still, self.boundary_share().1)
+    }
+
+    /// The most colours of any block, and of any group between blocks.
+    pub(super) fn colours(&self) -> (usize, usize) {
+        let most = |groups: &mut dyn Iterator<Item = &Group>| groups.map(|g| g.colouring.colours()).max().unwrap_or(0);
+        (most(&mut self.blocks.iter()), most(&mut self.between()))
+    }
+
+    /// Bars in octets paired at both ends and at end a, and in all.
+    pub(super) fn paired_share(&self) -> ([usize; 2], usize) {
+        let mut paired = [0; 2];
+        for colouring in self.groups().map(|g| &g.colouring) {
+            for c in 0..colouring.independent {
+                let [both, a_end] = colouring.paired[c];
+                paired[0] += both - colouring.colour(c).start;
+                paired[1] += a_end - both;
+            }
+        }
+        (paired, self.boundary_share().1)
+    }
+
+    /// Bars between blocks, and in all.
+    pub(super) fn boundary_share(&self) -> (usize, usize) {
+        let count = |groups: &mut dyn Iterator<Item = &Group>| groups.map(|g| g.multipliers.len()).sum::<usize>();
+        (count(&mut self.between()), count(&mut self.groups()))
+    }
+
+    /// Bars between blocks further apart than neighbours (relaxed on one
+    /// thread).
+    pub(super) fn far_bars(&self) -> usize {
+        self.far.multipliers.len()
+    }
+
+    /// Every multiplier, group by group (blocks, seams, far bars).
+    #[cfg(test)]
+    pub(super) fn multipliers(&self) -> impl Iterator<Item = f32> + '_ {
+        self.groups().flat_map(|g| g.multipliers.iter().copied())
+    }
+
+    /// Zeroes every μ (the start of a substep).
+    pub(super) fn reset_multipliers(&mut self) {
+        let blocks = self.blocks.iter_mut().chain(self.seams.iter_mut().flatten());
+        for group in blocks.chain([&mut self.far]) {
+            group.multipliers.fill(0.0);
+        }
+    }
+
+    /// One pass: every block, then the seams after even blocks, then those
+    /// after odd ones (each round in parallel when the pool has threads:
+    /// its groups share no particle), then the far bars. Returns the
+    /// largest excess ([`relax_pass`]).
+    pub(super) fn relax_pass(&mut self, particles: &mut [Particle], sweep: &Sweep) -> f32 {
+        let parallel = rayon::current_num_threads() > 1;
+        let size = self.block_size;
+        let [even, odd] = &mut self.seams;
+        let inside = relax_runs(particles, &mut self.blocks, 0, size, parallel, sweep);
+        let even = relax_runs(particles, even, 0, 2 * size, parallel, sweep);
+        let odd = relax_runs(particles, odd, size, 2 * size, parallel, sweep);
+        let far = if self.far.multipliers.is_empty() { f32::NEG_INFINITY } else { self.far.relax(particles, sweep) };
+        inside.max(even).max(odd).max(far)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::BarKind;
+
+    #[test]
+    fn a_pass_is_its_groups_one_after_another_in_the_documented_order() {
+        // A 130 × 130 sheet (16 900 particles: four blocks, seams 0 and 2
+        // after even blocks, seam 1 after an odd one) of structural,
+        // diagonal and bend bars, stretched 3 %, with four bars from the
+        // first row to the last (blocks 0 and 3: far bars). Unequal masses
+        // and compliant bars, so every group's multipliers move too.
+        let n = 130u32;
+        let at = |c: u32, r: u32| r * n + c;
+        let mut bars = Vec::new();
+        let mut bar = |a: u32, b: u32, kind: BarKind, rest: f32| bars.push(Bar { a, b, rest_length: rest, kind });
+        for r in 0..n {
+            for c in 0..n {
+                if c + 1 < n {
+                    bar(at(c, r), at(c + 1, r), BarKind::Structural, 0.1);
+                }
+                if r + 1 < n {
+                    bar(at(c, r), at(c, r + 1), BarKind::Structural, 0.1);
+                }
+                if c + 1 < n && r + 1 < n {
+                    bar(at(c, r), at(c + 1, r + 1), BarKind::Shear, 0.1 * std::f32::consts::SQRT_2);
+                }
+                if r + 2 < n {
+                    bar(at(c, r), at(c, r + 2), BarKind::Bend, 0.2);
+                }
+            }
+        }
+        for c in [0, 40, 80, 120] {
+            bar(at(c, 0), at(c + 1, n - 1), BarKind::Structural, 11.0);
+        }
+        let count = (n * n) as usize;
+        let particles: Vec<Particle> = (0..count as u32)
+            .map(|i| {
+                let (c, r) = ((i % n) as f32, (i / n) as f32);
+                let weight = [1.0, 0.5, 1.0 / 3.0][i as usize % 3];
+                Particle { position: [c * 0.103, r * 0.103, 0.01 * (c * 0.7 + r).sin()], weight }
+            })
+            .collect();
+        let blocked = BlockedBars::new(&bars, count, &vec![false; count]);
+        assert_eq!((blocked.blocks.len(), blocked.seams[0].len(), blocked.seams[1].len()), (4, 2, 1));
+        assert_eq!(blocked.far_bars(), 4);
+        let sweep = Sweep { betas: [0.3, 2.0, 0.7], omega: 1.2, tolerance: 0.0 };
+
+        // Blocks, even seams and odd seams in parallel rounds on two threads.
+        let (mut rounds, mut x_rounds) = (blocked.clone(), particles.clone());
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("a pool");
+        pool.install(|| rounds.relax_pass(&mut x_rounds, &sweep));
+        // The same groups one after another, each over its own particles.
+        let (mut alone, mut x_alone) = (blocked, particles.clone());
+        let [even, odd] = &mut alone.seams;
+        let groups = alone.blocks.iter_mut().chain(even.iter_mut()).chain(odd.iter_mut()).chain([&mut alone.far]);
+        for group in groups {
+            let (first, last) = (group.first, group.first + group.colouring.particles);
+            group.relax(&mut x_alone[first..last], &sweep);
+        }
+        let bits = |b: &BlockedBars, x: &[Particle]| {
+            let positions = x.iter().flat_map(|p| p.position.map(f32::to_bits));
+            positions.chain(b.multipliers().map(f32::to_bits)).collect::<Vec<u32>>()
+        };
+        assert_eq!(bits(&rounds, &x_rounds), bits(&alone, &x_alone));
+        // Every group moved something: its multipliers are not all zero.
+        let [even, odd] = &rounds.seams;
+        for group in rounds.blocks.iter().chain(even).chain(odd).chain([&rounds.far]) {
+            assert!(group.multipliers.iter().any(|&m| m != 0.0), "a group starting at {} did not move", group.first);
+        }
+    }
+}
