@@ -81,10 +81,10 @@ pub(super) struct BlockedBars {
     far: Group,
 }
 
-/// Applies `relax` to each group with the particles it indexes:
-/// consecutive runs of `span` particles, the first `skip` left out, on the
-/// thread pool when `parallel` (the runs share no particle). Returns the
-/// largest excess (max is order-free: the same on any thread count).
+/// One pass of each group over the particles it indexes: consecutive runs
+/// of `span` particles, the first `skip` left out, on the thread pool when
+/// `parallel` (the runs share no particle). Returns the largest excess (max
+/// is order-free: the same on any thread count).
 fn relax_runs(
     particles: &mut [Particle],
     groups: &mut [Group],
