@@ -150,6 +150,11 @@ impl BlockedBars {
         self.blocks.iter().chain(self.seams.iter().flatten()).chain([&self.far])
     }
 
+    /// [`BlockedBars::groups`], to change.
+    fn groups_mut(&mut self) -> impl Iterator<Item = &mut Group> {
+        self.blocks.iter_mut().chain(self.seams.iter_mut().flatten()).chain([&mut self.far])
+    }
+
     /// The bars between blocks: the seams and the far bars.
     fn between(&self) -> impl Iterator<Item = &Group> {
         self.seams.iter().flatten().chain([&self.far])
@@ -158,8 +163,7 @@ impl BlockedBars {
     /// [`Colouring::count_still`] for every group, from the particles'
     /// weights.
     pub(super) fn count_still(&mut self, particles: &[Particle]) {
-        let blocks = self.blocks.iter_mut().chain(self.seams.iter_mut().flatten());
-        for group in blocks.chain([&mut self.far]) {
+        for group in self.groups_mut() {
             let first = group.first;
             group.colouring.count_still(|i| particles[first + i].weight);
         }
@@ -210,8 +214,7 @@ impl BlockedBars {
 
     /// Zeroes every μ (the start of a substep).
     pub(super) fn reset_multipliers(&mut self) {
-        let blocks = self.blocks.iter_mut().chain(self.seams.iter_mut().flatten());
-        for group in blocks.chain([&mut self.far]) {
+        for group in self.groups_mut() {
             group.multipliers.fill(0.0);
         }
     }

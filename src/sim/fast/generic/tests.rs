@@ -4,6 +4,31 @@
 use super::*;
 use crate::sim::mesh::ClothMesh;
 
+/// A substep of 10 ms with a little wind and gravity, `relaxations`
+/// passes, compliance `betas` (structural, bend, shear) and tethers at
+/// `tether_slack`.
+fn substep<'a>(
+    first: Option<(&'a [Vec3], Vec3)>,
+    relaxations: u32,
+    [stretch_beta, bend_beta, shear_beta]: [f32; 3],
+    tether_slack: Option<f32>,
+) -> Substep<'a> {
+    Substep {
+        dt: 0.01,
+        keep: 0.98,
+        accel: Vec3::new(0.0, 0.0, 1e-4),
+        gravity: Vec3::new(0.0, -9.8e-4, 0.0),
+        first,
+        relaxations,
+        tolerance: 0.0,
+        over_relaxation: 1.0,
+        stretch_beta,
+        bend_beta,
+        shear_beta,
+        tether_slack,
+    }
+}
+
 /// An n × n triangulated sheet (spacing 0.1 m, a little crumpled) whose
 /// particles are numbered in a shuffled order, as subdivision leaves an
 /// OBJ's vertices: positions and bars.
@@ -44,20 +69,7 @@ fn particle_phases_give_the_same_bits_on_one_thread_and_on_two() {
     let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { [1.0, 0.5][i % 2] }).collect();
     let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
     let velocity: Vec<Vec3> = (0..n).map(|i| Vec3::new(0.0, 0.0, (i % 7) as f32 * 0.01)).collect();
-    let substep = |first| Substep {
-        dt: 0.01,
-        keep: 0.98,
-        accel: Vec3::new(0.0, 0.0, 1e-4),
-        gravity: Vec3::new(0.0, -9.8e-4, 0.0),
-        first,
-        relaxations: 3,
-        tolerance: 0.0,
-        over_relaxation: 1.0,
-        stretch_beta: 0.0,
-        bend_beta: 0.0,
-        shear_beta: 0.0,
-        tether_slack: None,
-    };
+    let substep = |first| substep(first, 3, [0.0; 3], None);
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
         let mut l = layout.clone();
@@ -150,20 +162,7 @@ fn a_shuffled_mesh_is_renumbered_and_moves_as_if_it_were_not() {
     let ordered_velocity: Vec<Vec3> = r.scene.iter().map(|&i| velocity[i as usize]).collect();
     let push: Vec<Vec3> = (0..n).map(|i| Vec3::new((i % 11) as f32 * 1e-4, 0.0, 0.0)).collect();
     let ordered_push: Vec<Vec3> = r.scene.iter().map(|&i| push[i as usize]).collect();
-    let substep = |first| Substep {
-        dt: 0.01,
-        keep: 0.98,
-        accel: Vec3::new(0.0, 0.0, 1e-4),
-        gravity: Vec3::new(0.0, -9.8e-4, 0.0),
-        first,
-        relaxations: 5,
-        tolerance: 0.0,
-        over_relaxation: 1.0,
-        stretch_beta: 0.1,
-        bend_beta: 1.0,
-        shear_beta: 0.1,
-        tether_slack: Some(0.0),
-    };
+    let substep = |first| substep(first, 5, [0.1, 1.0, 0.1], Some(0.0));
     let (mut a, mut b) = (shuffled, ordered);
     for step in 0..3 {
         a.integrate(&substep((step == 0).then_some((&velocity[..], Vec3::ZERO))));
@@ -217,20 +216,7 @@ fn octets_between_fixed_particles_are_skipped_with_the_bits_of_projecting_them()
     project_all(&mut projecting);
     assert_eq!(projecting.bars.still_share().0, 0);
 
-    let substep = |first| Substep {
-        dt: 0.01,
-        keep: 0.98,
-        accel: Vec3::new(0.0, 0.0, 1e-4),
-        gravity: Vec3::new(0.0, -9.8e-4, 0.0),
-        first,
-        relaxations: 5,
-        tolerance: 0.0,
-        over_relaxation: 1.0,
-        stretch_beta: 0.1,
-        bend_beta: 1.0,
-        shear_beta: 0.1,
-        tether_slack: None,
-    };
+    let substep = |first| substep(first, 5, [0.1, 1.0, 0.1], None);
     let velocity = vec![Vec3::new(0.0, 0.0, 0.01); n];
     let steps = |l: &mut GenericLayout, first: bool| {
         for step in 0..3 {
