@@ -1,10 +1,16 @@
 //! The coloured layout's bars in groups over blocks of particles.
 //!
 //! A mesh of more than [`BLOCK_PARTICLES`] particles is cut into blocks of
-//! consecutive particle indices, each at most that many (256 KiB of
+//! consecutive particle indices, as many as the next multiple of
+//! [`THREAD_SHARES`] after one block per [`BLOCK_PARTICLES`] (256 KiB of
 //! particles, which stay in a core's L2 cache while its colours are
-//! swept), as many as the next multiple of [`THREAD_SHARES`]. Each group's
-//! bars are coloured on their own ([`super::colouring`]):
+//! swept). The cut gives each block the same share of the bars a pass
+//! projects (those with an end not fixed when the layout is built), not the
+//! same number of particles: a block of pinned particles costs a pass
+//! almost nothing, and with equal particle counts disc-183 (its middle
+//! third pinned) left one of two threads idle for an eighth of each pass
+//! (see [`BlockedBars::starts`]). Each group's bars are coloured on their
+//! own ([`super::colouring`]):
 //!
 //! - a bar with both ends in block k belongs to block k;
 //! - a bar between blocks k and k + 1 to seam k, coloured over those two
@@ -18,8 +24,9 @@
 //! relaxed on one thread while the other idled (2.3 % of disc-183's bars,
 //! 35–65 µs a pass on two threads of host D); in seams, disc-183's step on
 //! two threads went from 9.9–15.4 ms to 9.2–12.3 ms (five alternated
-//! pairs, each seams' run the shorter). The cut depends on the particle
-//! count only, so every thread count computes the same bits.
+//! pairs, each seams' run the shorter). The cut depends on the mesh and
+//! the fixed particles only, never on the thread count, so every thread
+//! count computes the same bits.
 //!
 //! Meshes whose vertex order is local (rows of a sheet, rings of the
 //! tablecloth) keep the bars between blocks few: 1.8 % of the bars of a
@@ -28,6 +35,8 @@
 //! them), the layout renumbers the particles in
 //! [`super::order::breadth_first_order`] and keeps that if fewer bars then
 //! cross. Blocks start at an even index, on a dimer.
+
+use std::ops::Range;
 
 use rayon::prelude::*;
 
@@ -67,10 +76,10 @@ impl Group {
 /// blocks, and any others'.
 #[derive(Clone, Debug)]
 pub(super) struct BlockedBars {
-    /// Particles per block (the last may have fewer).
-    block_size: usize,
-    /// Block k holds the bars within particles `k·block_size..`, indexed
-    /// from its first particle.
+    /// Block k is particles `starts[k]..starts[k + 1]` (even starts, the
+    /// last the particle count).
+    starts: Vec<usize>,
+    /// Block k holds the bars within its particles, indexed from its first.
     pub(super) blocks: Vec<Group>,
     /// Seam k holds the bars between blocks k and k + 1, indexed from block
     /// k's first particle; `seams[0]` the seams after even blocks, which
@@ -81,68 +90,115 @@ pub(super) struct BlockedBars {
     far: Group,
 }
 
-/// One pass of each group over the particles it indexes: consecutive runs
-/// of `span` particles, the first `skip` left out, on the thread pool when
+/// One pass of each group over the particles it indexes: group k over
+/// `runs[k]` (increasing, disjoint ranges), on the thread pool when
 /// `parallel` (the runs share no particle). Returns the largest excess (max
 /// is order-free: the same on any thread count).
 fn relax_runs(
     particles: &mut [Particle],
     groups: &mut [Group],
-    skip: usize,
-    span: usize,
+    runs: &[Range<usize>],
     parallel: bool,
     sweep: &Sweep,
 ) -> f32 {
-    let skip = skip.min(particles.len());
-    let particles = &mut particles[skip..];
-    let relax = |(p, group): (&mut [Particle], &mut Group)| group.relax(p, sweep);
+    let mut slices = Vec::with_capacity(groups.len());
+    let (mut rest, mut at) = (particles, 0);
+    for run in runs.iter().cloned() {
+        let (_, tail) = std::mem::take(&mut rest).split_at_mut(run.start - at);
+        let (slice, tail) = tail.split_at_mut(run.len());
+        slices.push(slice);
+        (rest, at) = (tail, run.end);
+    }
+    let relax = |(p, group): (&mut &mut [Particle], &mut Group)| group.relax(p, sweep);
     if parallel && groups.len() > 1 {
-        particles.par_chunks_mut(span).zip(groups.par_iter_mut()).map(relax).reduce(|| f32::NEG_INFINITY, f32::max)
+        slices.par_iter_mut().zip(groups.par_iter_mut()).map(relax).reduce(|| f32::NEG_INFINITY, f32::max)
     } else {
-        particles.chunks_mut(span).zip(groups.iter_mut()).map(relax).fold(f32::NEG_INFINITY, f32::max)
+        slices.iter_mut().zip(groups.iter_mut()).map(relax).fold(f32::NEG_INFINITY, f32::max)
     }
 }
 
+/// The block of particle `i` (`starts` as [`BlockedBars::starts`]).
+fn block_of(starts: &[usize], i: u32) -> usize {
+    starts.partition_point(|&s| s <= i as usize) - 1
+}
+
 impl BlockedBars {
-    /// How many blocks `particles` particles make, and the particles in
-    /// each (even: a block starts on a dimer, two rows of one 32-byte load).
-    fn cut(particles: usize) -> (usize, usize) {
+    /// Where the blocks start, and the particle count last: one block when
+    /// `particles` ≤ [`BLOCK_PARTICLES`], else one per [`BLOCK_PARTICLES`]
+    /// rounded up to a multiple of [`THREAD_SHARES`]. Block k ends where the
+    /// bars a pass projects (an end not `fixed`), counted at their lower
+    /// end, reach k + 1 shares of them (equal particle counts when every
+    /// end is fixed). Each start is even (a block starts on a dimer, two
+    /// rows of one 32-byte load) and after the last.
+    pub(super) fn starts(bars: &[Bar], particles: usize, fixed: &[bool]) -> Vec<usize> {
         let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
-        let count = if count > 1 { count.next_multiple_of(THREAD_SHARES) } else { 1 };
-        (count, particles.div_ceil(count).next_multiple_of(2).max(2))
+        if count == 1 {
+            return vec![0, particles];
+        }
+        let count = count.next_multiple_of(THREAD_SHARES);
+        let mut work = vec![0u64; particles];
+        for bar in bars.iter().filter(|b| !(fixed[b.a as usize] && fixed[b.b as usize])) {
+            work[bar.a.min(bar.b) as usize] += 1;
+        }
+        if work.iter().all(|&w| w == 0) {
+            work.fill(1);
+        }
+        let total: u64 = work.iter().sum();
+        let mut starts = vec![0];
+        let mut done = 0;
+        for (i, w) in work.into_iter().enumerate() {
+            // Blocks 0..k are full once k shares are done: block k starts
+            // at the next even index.
+            let k = starts.len() as u64;
+            if i % 2 == 0 && k < count as u64 && done * count as u64 >= k * total && i > starts[starts.len() - 1] {
+                starts.push(i);
+            }
+            done += w;
+        }
+        starts.push(particles);
+        starts
     }
 
-    /// How many of `bars` would join two blocks (without colouring them).
+    /// How many of `bars` would join two blocks of a cut with no particle
+    /// fixed (without colouring them): how local a numbering is.
     pub(super) fn boundary_count(bars: &[Bar], particles: usize) -> usize {
-        let (_, block_size) = Self::cut(particles);
-        bars.iter().filter(|b| b.a as usize / block_size != b.b as usize / block_size).count()
+        let starts = Self::starts(bars, particles, &vec![false; particles]);
+        bars.iter().filter(|b| block_of(&starts, b.a) != block_of(&starts, b.b)).count()
     }
 
     /// The layout's bars, the still ones of each class first where
     /// `fixed` (by particle) holds both their ends.
     pub(super) fn new(bars: &[Bar], particles: usize, fixed: &[bool]) -> Self {
-        let (count, block_size) = Self::cut(particles);
+        let starts = Self::starts(bars, particles, fixed);
+        let count = starts.len() - 1;
         let mut inside: Vec<Vec<&Bar>> = vec![Vec::new(); count];
         let mut seams: Vec<Vec<&Bar>> = vec![Vec::new(); count.saturating_sub(1)];
         let mut far = Vec::new();
         for bar in bars {
-            let (ka, kb) = (bar.a as usize / block_size, bar.b as usize / block_size);
+            let (ka, kb) = (block_of(&starts, bar.a), block_of(&starts, bar.b));
             match ka.abs_diff(kb) {
                 0 => inside[ka].push(bar),
                 1 => seams[ka.min(kb)].push(bar),
                 _ => far.push(bar),
             }
         }
-        // Particles from block k's first: `blocks` blocks' worth, or to the end.
-        let span = |k: usize, blocks: usize| (blocks * block_size).min(particles.saturating_sub(k * block_size));
-        let group =
-            |(k, bars): (usize, &Vec<&Bar>), blocks: usize| Group::new(bars, k * block_size, span(k, blocks), fixed);
+        // Particles from block k's first: `blocks` blocks' worth.
+        let group = |(k, bars): (usize, &Vec<&Bar>), blocks: usize| {
+            Group::new(bars, starts[k], starts[k + blocks] - starts[k], fixed)
+        };
         let blocks = inside.iter().enumerate().map(|b| group(b, 1)).collect();
         let mut paired: [Vec<Group>; 2] = [Vec::new(), Vec::new()];
         for (k, bars) in seams.iter().enumerate() {
             paired[k % 2].push(group((k, bars), 2));
         }
-        BlockedBars { block_size, blocks, seams: paired, far: Group::new(&far, 0, particles, fixed) }
+        BlockedBars { starts, blocks, seams: paired, far: Group::new(&far, 0, particles, fixed) }
+    }
+
+    /// The particles of each group in `groups`: from block k's first, for
+    /// `blocks` blocks.
+    fn runs(&self, groups: &[Group], blocks: usize) -> Vec<Range<usize>> {
+        let block = |g: &Group| self.starts.partition_point(|&s| s < g.first);
+        groups.iter().map(|g| g.first..self.starts[block(g) + blocks]).collect()
     }
 
     /// Every group: blocks, seams, the far bars.
@@ -225,11 +281,12 @@ impl BlockedBars {
     /// largest excess ([`relax_pass`]).
     pub(super) fn relax_pass(&mut self, particles: &mut [Particle], sweep: &Sweep) -> f32 {
         let parallel = rayon::current_num_threads() > 1;
-        let size = self.block_size;
-        let [even, odd] = &mut self.seams;
-        let inside = relax_runs(particles, &mut self.blocks, 0, size, parallel, sweep);
-        let even = relax_runs(particles, even, 0, 2 * size, parallel, sweep);
-        let odd = relax_runs(particles, odd, size, 2 * size, parallel, sweep);
+        let [inside, even, odd] =
+            [self.runs(&self.blocks, 1), self.runs(&self.seams[0], 2), self.runs(&self.seams[1], 2)];
+        let [even_seams, odd_seams] = &mut self.seams;
+        let inside = relax_runs(particles, &mut self.blocks, &inside, parallel, sweep);
+        let even = relax_runs(particles, even_seams, &even, parallel, sweep);
+        let odd = relax_runs(particles, odd_seams, &odd, parallel, sweep);
         let far = if self.far.multipliers.is_empty() { f32::NEG_INFINITY } else { self.far.relax(particles, sweep) };
         inside.max(even).max(odd).max(far)
     }
@@ -239,6 +296,51 @@ impl BlockedBars {
 mod tests {
     use super::*;
     use crate::sim::BarKind;
+
+    #[test]
+    fn blocks_share_the_bars_a_pass_projects_not_the_particles() {
+        // A 200 × 200 sheet (40 000 particles: ⌈40 000 / 16 384⌉ = 3, so 4
+        // blocks) of horizontal and vertical bars, rows 0–99 fixed. The bars
+        // a pass projects, counted at their lower end: row 99's 200 vertical
+        // bars into row 100, rows 100–198's 199 + 200 each, row 199's 199:
+        // 200 + 99 · 399 + 199 = 39 900, so 9 975 a block. A block ends at
+        // the first even index past its share; a particle adds at most 2
+        // bars, so each end is at most 4 bars late and each block's count
+        // within 8 of 9 975. Cut by particle count instead (10 000 each),
+        // blocks 0 and 1 would hold 0 and 200 of those bars and blocks 2
+        // and 3 about 19 850 each: one of two threads idle for half a pass.
+        let n = 200u32;
+        let at = |c: u32, r: u32| r * n + c;
+        let mut bars = Vec::new();
+        for r in 0..n {
+            for c in 0..n {
+                let mut bar = |b: u32| bars.push(Bar { a: at(c, r), b, rest_length: 0.1, kind: BarKind::Structural });
+                if c + 1 < n {
+                    bar(at(c + 1, r));
+                }
+                if r + 1 < n {
+                    bar(at(c, r + 1));
+                }
+            }
+        }
+        let count = (n * n) as usize;
+        let fixed: Vec<bool> = (0..count).map(|i| i < count / 2).collect();
+        let starts = BlockedBars::starts(&bars, count, &fixed);
+        assert_eq!(starts.len(), 5, "{starts:?}");
+        assert_eq!((starts[0], starts[4]), (0, count));
+        assert!(starts.windows(2).all(|w| w[0] < w[1]) && starts.iter().all(|s| s % 2 == 0), "{starts:?}");
+        let moving = |b: &&Bar| !(fixed[b.a as usize] && fixed[b.b as usize]);
+        for k in 0..4 {
+            let inside = |b: &&Bar| (starts[k]..starts[k + 1]).contains(&(b.a.min(b.b) as usize));
+            let share = bars.iter().filter(moving).filter(inside).count();
+            assert!(share.abs_diff(9_975) <= 8, "block {k} holds {share} of the bars a pass projects: {starts:?}");
+        }
+        // The first block takes every fixed particle and 25 rows after them.
+        assert!((124 * 200..125 * 200).contains(&starts[1]), "{starts:?}");
+        // With nothing fixed the cut is by the bars alone: near-equal rows.
+        let loose = BlockedBars::starts(&bars, count, &vec![false; count]);
+        assert!(loose.windows(2).all(|w| (w[1] - w[0]).abs_diff(count / 4) <= 2 * n as usize), "{loose:?}");
+    }
 
     #[test]
     fn a_pass_is_its_groups_one_after_another_in_the_documented_order() {
