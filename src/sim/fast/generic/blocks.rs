@@ -1,10 +1,9 @@
 //! The coloured layout's bars in groups over blocks of particles.
 //!
 //! A mesh of more than [`BLOCK_PARTICLES`] particles is cut into blocks of
-//! consecutive particle indices, as many as the next multiple of
-//! [`THREAD_SHARES`] after one block per [`BLOCK_PARTICLES`] (256 KiB of
-//! particles, which stay in a core's L2 cache while its colours are
-//! swept). The cut gives each block the same share of the bars a pass
+//! consecutive particle indices: one per [`BLOCK_PARTICLES`] particles
+//! (256 KiB, which stay in a core's L2 cache while its colours are swept),
+//! rounded up to a multiple of [`THREAD_SHARES`]. The cut gives each block the same share of the bars a pass
 //! projects (those with an end not fixed when the layout is built), not the
 //! same number of particles: a block of pinned particles costs a pass
 //! almost nothing, and with equal particle counts disc-183 (its middle
@@ -46,7 +45,9 @@ use super::sweep::{Sweep, relax_pass};
 use crate::sim::fast::THREAD_SHARES;
 use crate::sim::mesh::Bar;
 
-/// Most particles in a block (16 bytes each: 256 KiB).
+/// Particles a block is sized for (16 bytes each: 256 KiB): the block
+/// count is one per this many. A block that holds pinned particles may
+/// hold more, as the cut shares out the bars a pass projects.
 pub(super) const BLOCK_PARTICLES: usize = 16_384;
 
 /// Coloured bars and their multipliers μ = βλ (in colour order), over the
