@@ -3,13 +3,13 @@
 //! A mesh of more than [`BLOCK_PARTICLES`] particles is cut into blocks of
 //! consecutive particle indices: one per [`BLOCK_PARTICLES`] particles
 //! (256 KiB, which stay in a core's L2 cache while its colours are swept),
-//! rounded up to a multiple of [`THREAD_SHARES`]. The cut gives each block the same share of the bars a pass
-//! projects (those with an end not fixed when the layout is built), not the
-//! same number of particles: a block of pinned particles costs a pass
-//! almost nothing, and with equal particle counts disc-183 (its middle
-//! third pinned) left one of two threads idle for an eighth of each pass
-//! (see [`BlockedBars::starts`]). Each group's bars are coloured on their
-//! own ([`super::colouring`]):
+//! rounded up to a multiple of [`THREAD_SHARES`]. The cut gives each block
+//! the same share of the bars a pass projects (those with an end not fixed
+//! when the layout is built), not the same number of particles: a block of
+//! pinned particles costs a pass almost nothing, and with equal particle
+//! counts disc-183 (its middle third pinned) left one of two threads idle
+//! for an eighth of each pass (see [`BlockedBars::starts`]). Each group's
+//! bars are coloured on their own ([`super::colouring`]):
 //!
 //! - a bar with both ends in block k belongs to block k;
 //! - a bar between blocks k and k + 1 to seam k, coloured over those two
@@ -133,7 +133,7 @@ impl BlockedBars {
     /// bars a pass projects (an end not `fixed`), counted at their lower
     /// end, reach k + 1 shares of them (equal particle counts when every
     /// end is fixed). Each start is even (a block starts on a dimer, two
-    /// rows of one 32-byte load) and after the last.
+    /// rows of one 32-byte load).
     pub(super) fn starts(bars: &[Bar], particles: usize, fixed: &[bool]) -> Vec<usize> {
         let count = particles.div_ceil(BLOCK_PARTICLES).max(1);
         if count == 1 {
@@ -151,10 +151,11 @@ impl BlockedBars {
         let mut starts = vec![0];
         let mut done = 0;
         for (i, w) in work.into_iter().enumerate() {
-            // Blocks 0..k are full once k shares are done: block k starts
-            // at the next even index.
+            // Blocks 0..k are full once k shares are done (never at i = 0,
+            // where none is: total > 0): block k starts at the next even
+            // index, so the starts increase.
             let k = starts.len() as u64;
-            if i % 2 == 0 && k < count as u64 && done * count as u64 >= k * total && i > starts[starts.len() - 1] {
+            if i % 2 == 0 && k < count as u64 && done * count as u64 >= k * total {
                 starts.push(i);
             }
             done += w;
