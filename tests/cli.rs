@@ -80,37 +80,59 @@ fn run_writes_the_state_and_the_trace() {
     assert!(csv.contains("\n10,"), "no row for step 10");
 }
 
+/// The fast solver's end state on the seed's scene (its wind) after `steps`
+/// steps at SIMD level `level` (`DRAPE_SIMD`), and the line `drape run`
+/// prints about the level.
+fn state_at_level(dir: &Path, level: &str, steps: u32) -> (Vec<[f64; 3]>, String) {
+    let out = dir.join(format!("state-{level}-{steps}.json"));
+    let o = Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["run", "--steps", &steps.to_string(), "--out", path(&out), "-q"])
+        .env("DRAPE_SIMD", level)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let stdout = text(&o.stdout);
+    let line = stdout.lines().find(|l| l.starts_with("SIMD level")).unwrap_or_default().to_string();
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    (serde_json::from_value(state["positions"].clone()).unwrap(), line)
+}
+
 #[test]
 fn every_simd_level_gives_the_same_bits() {
     // The kernels are one source compiled for each level: the fast
     // solver's end state on the seed's scene (its wind, 150 steps) is the
-    // same at the best level and at the portable one, bit for bit (the JSON
-    // holds each f32 as its shortest decimal). DRAPE_SIMD=avx512 on a CPU
-    // without it says so and runs the best it has.
+    // same at every level with FMA, bit for bit (the JSON holds each f32 as
+    // its shortest decimal, read back exactly as f64). DRAPE_SIMD=avx512
+    // on a CPU without it says so and runs the best it has.
     let dir = scratch("simd_levels");
-    let mut states = Vec::new();
-    for level in ["", "portable", "avx2", "avx512", "nonsense"] {
-        let out = dir.join(format!("state-{level}.json"));
-        let o = Command::new(env!("CARGO_BIN_EXE_drape"))
-            .args(["run", "--steps", "150", "--out", path(&out), "-q"])
-            .env("DRAPE_SIMD", level)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", text(&o.stderr));
-        let stdout = text(&o.stdout);
-        let line = stdout.lines().find(|l| l.starts_with("SIMD level")).unwrap_or_default().to_string();
-        if level == "portable" {
-            assert!(line.contains("portable (DRAPE_SIMD=portable)"), "{line}");
-        }
+    let (best, _) = state_at_level(&dir, "", 150);
+    for level in ["avx2", "avx512", "nonsense"] {
+        let (positions, line) = state_at_level(&dir, level, 150);
         if level == "nonsense" {
             assert!(line.contains("not a level"), "{line}");
         }
-        let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
-        states.push((level, state["positions"].clone()));
+        assert!(positions == best, "DRAPE_SIMD={level} differs from the default");
     }
-    for (level, positions) in &states[1..] {
-        assert!(positions == &states[0].1, "DRAPE_SIMD={level} differs from the default");
+    // The portable level fuses the grid's multiply-adds only where its
+    // target has FMA (drape::sim::fast::simd::PORTABLE_FUSED); there it
+    // gives the same bits too.
+    let (portable, line) = state_at_level(&dir, "portable", 150);
+    assert!(line.contains("portable (DRAPE_SIMD=portable)"), "{line}");
+    if drape::sim::fast::simd::PORTABLE_FUSED {
+        assert!(portable == best, "the portable level differs from the default");
+        return;
     }
+    // Elsewhere it rounds each of them twice. Over one step that moves no
+    // particle by more than 10⁻⁶ m, an ulp of a coordinate near 15 m (the
+    // cloth hangs 14.5 m up; measured on a Zen 4: 1.5 × 10⁻⁸ m). Over 150
+    // steps of the seed's gusting wind the difference grows like any
+    // rounding difference in a flapping cloth (1.8 cm measured), so the
+    // long run is not compared.
+    let (portable, _) = state_at_level(&dir, "portable", 1);
+    let (fused, _) = state_at_level(&dir, "", 1);
+    let apart = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
+    let worst = portable.iter().zip(&fused).map(|(p, q)| apart(p, q)).fold(0.0, f64::max);
+    assert!(worst <= 1e-6, "after one step the portable level is {worst} m from the fused one");
 }
 
 fn path(p: &Path) -> &str {

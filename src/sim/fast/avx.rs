@@ -13,7 +13,7 @@ use std::arch::x86_64::{
     _mm256_mul_ps, _mm256_or_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
     _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
-use std::ops::{Add, Div, Mul, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use super::kernel::{LANES, Real};
 use super::rows::Rows;
@@ -25,8 +25,8 @@ use super::rows::Rows;
 /// after [`super::simd::level`] said AVX2 or above (the CPU reports AVX2 and
 /// FMA). So wherever an `Avx` exists, AVX is available, which is what each
 /// `unsafe` below relies on. Every operation is the IEEE operation of the
-/// `f32` path, lane by lane (no fused multiply-add), so both give the same
-/// bits.
+/// `f32` path, lane by lane (a fused multiply-add only where the kernel asks
+/// for one, [`Real::mul_add`]), so both give the same bits.
 #[derive(Clone, Copy)]
 pub(crate) struct Avx(pub(crate) __m256);
 
@@ -156,6 +156,16 @@ avx_op!(Sub, sub, _mm256_sub_ps);
 avx_op!(Mul, mul, _mm256_mul_ps);
 avx_op!(Div, div, _mm256_div_ps);
 
+impl Neg for Avx {
+    type Output = Avx;
+    /// Flips the sign bit, as `-` on an `f32`.
+    #[inline(always)]
+    fn neg(self) -> Avx {
+        // SAFETY: an `Avx` exists only where AVX is available.
+        Avx(unsafe { std::arch::x86_64::_mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
+    }
+}
+
 impl Real for Avx {
     #[inline(always)]
     fn splat(v: f32) -> Self {
@@ -188,6 +198,11 @@ impl Real for Avx {
     fn if_greater(a: Self, b: Self, then: Self, otherwise: Self) -> Self {
         // SAFETY: an `Avx` exists only where AVX is available.
         Avx(unsafe { _mm256_blendv_ps(otherwise.0, then.0, _mm256_cmp_ps::<_CMP_GT_OQ>(a.0, b.0)) })
+    }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        // SAFETY: an `Avx` exists only where AVX2 and FMA are available.
+        Avx(unsafe { std::arch::x86_64::_mm256_fmadd_ps(self.0, b.0, c.0) })
     }
     /// The magnitude bits of `self` and the sign bit of `sign`, as
     /// `f32::copysign`.

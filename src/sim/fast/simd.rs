@@ -14,7 +14,12 @@
 //! to the default; [`note`] says so (`drape run` prints it). The kernels are
 //! the same source at every level (the `dispatch!` macro): only the instructions
 //! the compiler may use differ, so every level computes the same bits
-//! (the tests check AVX2 against portable).
+//! (the tests check AVX2 against portable), with one exception: the lane
+//! layout's projection fuses its multiply-adds where the level has FMA
+//! (`dispatch!` with `body::<fused>`, [`PORTABLE_FUSED`]). AVX2 and
+//! AVX-512 then give the same bits; a portable build for a target without
+//! FMA (x86-64's baseline) rounds those multiply-adds twice, and its grids'
+//! last bits differ (a test bounds by how much).
 
 use std::sync::OnceLock;
 
@@ -118,30 +123,63 @@ pub fn describe() -> String {
     format!("{} ({why})", level.name())
 }
 
+/// Whether the portable level fuses the lane layout's multiply-adds (the
+/// six moves x ± c d, the sum d·d and ℓ² − (L − μ) ℓ of a grid's bar
+/// projection, each rounded once as at the AVX2 and AVX-512 levels): where
+/// the target's baseline has a fused multiply-add instruction (aarch64;
+/// x86-64 built with `-C target-feature=+fma`), so `f32::mul_add` is one
+/// instruction and the portable level gives the FMA levels' bits. On
+/// x86-64's baseline it would be a call out of line a lane, so there the
+/// portable level rounds them twice.
+pub const PORTABLE_FUSED: bool = cfg!(any(target_feature = "fma", target_arch = "aarch64"));
+
 /// Defines `fn $name(args) -> ret` that runs `$body(args)` (an
 /// `#[inline(always)]` function) compiled for the chosen [`level`]: the
 /// `best` targets (multiversion picks the best the CPU has among them), AVX2
-/// + FMA alone, or the portable baseline.
+/// and FMA alone, or the portable baseline.
+///
+/// With `= $body::<fused>`, `$body` takes a `const FUSED: bool`: `true` at
+/// the AVX2 and AVX-512 levels (both have FMA), [`PORTABLE_FUSED`] at the
+/// portable one.
 macro_rules! dispatch {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident($($arg:ident : $ty:ty),* $(,)?) $(-> $ret:ty)?
+            = $body:ident::<fused>, best = [$($target:literal),+]
+    ) => {
+        $crate::sim::fast::simd::dispatch! {
+            @levels $(#[$meta])* $vis fn $name($($arg: $ty),*) $(-> $ret)?
+                = [$body::<true>] [$body::<{ $crate::sim::fast::simd::PORTABLE_FUSED }>], best = [$($target),+]
+        }
+    };
     (
         $(#[$meta:meta])*
         $vis:vis fn $name:ident($($arg:ident : $ty:ty),* $(,)?) $(-> $ret:ty)?
             = $body:ident, best = [$($target:literal),+]
     ) => {
+        $crate::sim::fast::simd::dispatch! {
+            @levels $(#[$meta])* $vis fn $name($($arg: $ty),*) $(-> $ret)? = [$body] [$body], best = [$($target),+]
+        }
+    };
+    (
+        @levels $(#[$meta:meta])*
+        $vis:vis fn $name:ident($($arg:ident : $ty:ty),*) $(-> $ret:ty)?
+            = [$($fast:tt)+] [$($portable:tt)+], best = [$($target:literal),+]
+    ) => {
         $(#[$meta])*
         $vis fn $name($($arg: $ty),*) $(-> $ret)? {
             #[multiversion::multiversion(targets($($target),+))]
             fn best($($arg: $ty),*) $(-> $ret)? {
-                $body($($arg),*)
+                $($fast)+($($arg),*)
             }
             #[multiversion::multiversion(targets("x86_64+avx2+fma"))]
             fn avx2($($arg: $ty),*) $(-> $ret)? {
-                $body($($arg),*)
+                $($fast)+($($arg),*)
             }
             match $crate::sim::fast::simd::level() {
                 $crate::sim::fast::simd::SimdLevel::Avx512 => best($($arg),*),
                 $crate::sim::fast::simd::SimdLevel::Avx2 => avx2($($arg),*),
-                $crate::sim::fast::simd::SimdLevel::Portable => $body($($arg),*),
+                $crate::sim::fast::simd::SimdLevel::Portable => $($portable)+($($arg),*),
             }
         }
     };

@@ -118,7 +118,7 @@ fn relax_one<const XPBD: bool>(
     let (wa, wb) = (a.weight, b.weight);
     let rest = bars.rest[i];
     let beta = sweep.betas[usize::from(bars.kind[i])];
-    let v = relax_pair::<f32, XPBD>(&mut a.position, wa, &mut b.position, wb, rest, mu, beta, sweep.omega);
+    let v = relax_pair::<f32, XPBD, false>(&mut a.position, wa, &mut b.position, wb, rest, mu, beta, sweep.omega);
     particles[ia] = a;
     particles[ib] = b;
     if sweep.tolerance > 0.0 { excess(v, wa, wb, sweep.tolerance * rest) } else { f32::NEG_INFINITY }
@@ -303,7 +303,7 @@ mod avx2 {
         let (ia, ib) = unsafe { ends(columns, first) };
         // SAFETY: the caller's promise.
         let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
-        let (d, square) = bar_square(&a, &b);
+        let (d, square) = bar_square::<Avx, false>(&a, &b);
         Started { first, a, wa, b, wb, d, square }
     }
 
@@ -330,7 +330,7 @@ mod avx2 {
         // SAFETY: as above.
         let mut mu8 = if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
         let omega = Avx::splat(sweep.omega);
-        let v = correct_pair::<Avx, XPBD>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
+        let v = correct_pair::<Avx, XPBD, false>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
         // SAFETY: the caller's promise.
         unsafe {
             if XPBD {

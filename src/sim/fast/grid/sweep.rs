@@ -10,7 +10,7 @@ use crate::sim::fast::simd::dispatch;
 dispatch! {
     /// [`sweep_tile_pipelined_body`] at the chosen SIMD level.
     pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32)
-        = sweep_tile_pipelined_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+        = sweep_tile_pipelined_body::<fused>, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 /// What every sweep of a substep needs.
@@ -60,16 +60,16 @@ dispatch! {
     /// and rest length: [`super::seam_groups`]) in the lanes of one
     /// operation.
     fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32
-        = relax_boundary_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+        = relax_boundary_body::<fused>, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn relax_boundary_body(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
-    if sweep.compliant { relax_seams::<true>(a, b, sweep) } else { relax_seams::<false>(a, b, sweep) }
+fn relax_boundary_body<const FUSED: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
+    if sweep.compliant { relax_seams::<true, FUSED>(a, b, sweep) } else { relax_seams::<false, FUSED>(a, b, sweep) }
 }
 
 #[inline(always)]
-fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
+fn relax_seams<const XPBD: bool, const FUSED: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32 {
     // Slot and lane of a seam bar's end in `a`, then in `b`.
     let ends = |s: &SeamBar| (s.a.slot as usize, s.a.lane as usize, s.b.slot as usize, s.b.lane as usize);
     let mut worst = f32::NEG_INFINITY;
@@ -97,7 +97,7 @@ fn relax_seams<const XPBD: bool>(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f
         }
         let kind = group[0].kind as usize;
         let beta = if XPBD { sweep.betas[kind] } else { 0.0 };
-        let v = relax_lanes::<XPBD>(&mut pa, wa, &mut pb, wb, rest, &mut mu, beta, sweep.omega);
+        let v = relax_lanes::<XPBD, FUSED>(&mut pa, wa, &mut pb, wb, rest, &mut mu, beta, sweep.omega);
         for (l, seam) in group.iter().enumerate() {
             let (sa, la, sb, lb) = ends(seam);
             for k in 0..3 {
@@ -118,30 +118,42 @@ dispatch! {
     /// One relaxation sweep over every bar inside a tile. Returns the largest
     /// excess over tolerance among movable bars (−∞ when not asked for).
     fn sweep_tile(tile: &mut Tile, sweep: &Sweep) -> f32
-        = sweep_tile_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+        = sweep_tile_body::<fused>, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn sweep_tile_body(tile: &mut Tile, sweep: &Sweep) -> f32 {
+fn sweep_tile_body<const FUSED: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
     match (sweep.compliant, sweep.uniform, tile.presence.is_empty()) {
-        (true, true, _) => sweep_ops::<true, false, true>(tile, sweep),
-        (false, true, _) => sweep_ops::<false, false, true>(tile, sweep),
-        (true, false, true) => sweep_ops::<true, false, false>(tile, sweep),
-        (true, false, false) => sweep_ops::<true, true, false>(tile, sweep),
-        (false, false, true) => sweep_ops::<false, false, false>(tile, sweep),
-        (false, false, false) => sweep_ops::<false, true, false>(tile, sweep),
+        (true, true, _) => sweep_ops::<true, false, true, FUSED>(tile, sweep),
+        (false, true, _) => sweep_ops::<false, false, true, FUSED>(tile, sweep),
+        (true, false, true) => sweep_ops::<true, false, false, FUSED>(tile, sweep),
+        (true, false, false) => sweep_ops::<true, true, false, FUSED>(tile, sweep),
+        (false, false, true) => sweep_ops::<false, false, false, FUSED>(tile, sweep),
+        (false, false, false) => sweep_ops::<false, true, false, FUSED>(tile, sweep),
     }
 }
 
 #[inline(always)]
-fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
+fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
+    tile: &mut Tile,
+    sweep: &Sweep,
+) -> f32 {
     let track = sweep.tolerance > 0.0;
     let mut worst = F32x8::splat(f32::NEG_INFINITY);
     let Tile { position, weight, presence, shared, multipliers, rests, .. } = tile;
     for (j, &op) in sweep.ops.iter().enumerate() {
         let rest = op_rest(rests, j, op);
-        let (violation, wa, wb) =
-            relax_op::<XPBD, PADDED, UNIFORM>(position, weight, presence, shared, multipliers, j, op, rest, sweep);
+        let (violation, wa, wb) = relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
+            position,
+            weight,
+            presence,
+            shared,
+            multipliers,
+            j,
+            op,
+            rest,
+            sweep,
+        );
         if track {
             worst = worst.max(excess(violation, wa, wb, rest * F32x8::splat(sweep.tolerance)));
         }
@@ -164,19 +176,19 @@ fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(tile: &m
 /// chain of projections, each waiting for the square root and division of
 /// the last.
 #[inline(always)]
-fn sweep_tile_pipelined_body(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
+fn sweep_tile_pipelined_body<const FUSED: bool>(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32) {
     match (sweep.compliant, sweep.uniform, tile.presence.is_empty()) {
-        (true, true, _) => sweep_pipelined::<true, false, true>(tile, sweep, row_starts, sweeps),
-        (false, true, _) => sweep_pipelined::<false, false, true>(tile, sweep, row_starts, sweeps),
-        (true, false, true) => sweep_pipelined::<true, false, false>(tile, sweep, row_starts, sweeps),
-        (true, false, false) => sweep_pipelined::<true, true, false>(tile, sweep, row_starts, sweeps),
-        (false, false, true) => sweep_pipelined::<false, false, false>(tile, sweep, row_starts, sweeps),
-        (false, false, false) => sweep_pipelined::<false, true, false>(tile, sweep, row_starts, sweeps),
+        (true, true, _) => sweep_pipelined::<true, false, true, FUSED>(tile, sweep, row_starts, sweeps),
+        (false, true, _) => sweep_pipelined::<false, false, true, FUSED>(tile, sweep, row_starts, sweeps),
+        (true, false, true) => sweep_pipelined::<true, false, false, FUSED>(tile, sweep, row_starts, sweeps),
+        (true, false, false) => sweep_pipelined::<true, true, false, FUSED>(tile, sweep, row_starts, sweeps),
+        (false, false, true) => sweep_pipelined::<false, false, false, FUSED>(tile, sweep, row_starts, sweeps),
+        (false, false, false) => sweep_pipelined::<false, true, false, FUSED>(tile, sweep, row_starts, sweeps),
     }
 }
 
 #[inline(always)]
-fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
+fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
     tile: &mut Tile,
     sweep: &Sweep,
     row_starts: &[u32],
@@ -202,7 +214,7 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
                 for &(start, end) in &groups[..depth] {
                     if start + j < end {
                         let op = sweep.ops[start + j];
-                        relax_op::<XPBD, PADDED, UNIFORM>(
+                        relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
                             position,
                             weight,
                             presence,
@@ -235,7 +247,7 @@ fn op_rest(rests: &[F32x8], j: usize, op: Op) -> F32x8 {
 /// weights used (for the tolerance test).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
+fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
     position: &mut [Slot],
     weight: &[F32x8],
     presence: &[F32x8],
@@ -251,7 +263,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
     let mut dummy = F32x8::splat(0.0);
     let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
     if UNIFORM {
-        return relax_op_shared::<XPBD>(position, &shared[op.kind()], mu, op, rest, beta);
+        return relax_op_shared::<XPBD, FUSED>(position, &shared[op.kind()], mu, op, rest, beta);
     }
     let (mut a, mut wa) = (position[ia], weight[ia]);
     if !op.rotated() {
@@ -260,7 +272,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
             // A bar to padding does not exist: neither end moves.
             (wa, wb) = (wa * presence[ib], wb * presence[ia]);
         }
-        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
+        let v = relax_lanes::<XPBD, FUSED>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
         position[ib] = b;
         position[ia] = a;
         (v, wa, wb)
@@ -275,7 +287,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
         }
         wa.0[LANES - 1] = 0.0;
         wb.0[LANES - 1] = 0.0;
-        let v = relax_lanes::<XPBD>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
+        let v = relax_lanes::<XPBD, FUSED>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
         position[ib] = b.map(F32x8::rotate_up);
         position[ia] = a;
         (v, wa, wb)
@@ -286,7 +298,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(
 /// their weights. Returns the violations and each end's share (for the
 /// tolerance test, which only asks whether a bar can move).
 #[inline(always)]
-fn relax_op_shared<const XPBD: bool>(
+fn relax_op_shared<const XPBD: bool, const FUSED: bool>(
     position: &mut [Slot],
     shared: &[Weights<F32x8>],
     mu: &mut F32x8,
@@ -299,7 +311,7 @@ fn relax_op_shared<const XPBD: bool>(
     let moves = |wa: &Weights<F32x8>, wb: &Weights<F32x8>| (wa.own * wb.partner, wb.own * wa.partner);
     if !op.rotated() {
         let (mut b, wb) = (position[ib], shared[ib]);
-        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
+        let v = shared_lanes::<XPBD, FUSED>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
         position[ib] = b;
         position[ia] = a;
         let (sa, sb) = moves(&wa, &wb);
@@ -311,7 +323,7 @@ fn relax_op_shared<const XPBD: bool>(
         let mut wb = Weights { own: shared[ib].own.rotate_down(), partner: shared[ib].partner.rotate_down() };
         wb.own.0[LANES - 1] = 0.0;
         wb.partner.0[LANES - 1] = 0.0;
-        let v = shared_lanes::<XPBD>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
+        let v = shared_lanes::<XPBD, FUSED>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
         position[ib] = b.map(F32x8::rotate_up);
         position[ia] = a;
         let (sa, sb) = moves(&wa, &wb);
@@ -321,7 +333,7 @@ fn relax_op_shared<const XPBD: bool>(
 
 /// [`relax_lanes`] in the share form.
 #[inline(always)]
-fn shared_lanes<const XPBD: bool>(
+fn shared_lanes<const XPBD: bool, const FUSED: bool>(
     a: &mut Slot,
     wa: &Weights<F32x8>,
     b: &mut Slot,
@@ -336,7 +348,8 @@ fn shared_lanes<const XPBD: bool>(
         let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
         let wal = Weights { own: wa.own.0[l], partner: wa.partner.0[l] };
         let wbl = Weights { own: wb.own.0[l], partner: wb.partner.0[l] };
-        violation.0[l] = relax_pair_shared::<f32, XPBD>(&mut pa, wal, &mut pb, wbl, rest.0[l], &mut mu.0[l], beta);
+        violation.0[l] =
+            relax_pair_shared::<f32, XPBD, FUSED>(&mut pa, wal, &mut pb, wbl, rest.0[l], &mut mu.0[l], beta);
         for k in 0..3 {
             a[k].0[l] = pa[k];
             b[k].0[l] = pb[k];
@@ -349,7 +362,7 @@ fn shared_lanes<const XPBD: bool>(
 /// kernel in a loop that the compiler vectorises lane for lane.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn relax_lanes<const XPBD: bool>(
+fn relax_lanes<const XPBD: bool, const FUSED: bool>(
     a: &mut Slot,
     wa: F32x8,
     b: &mut Slot,
@@ -364,7 +377,7 @@ fn relax_lanes<const XPBD: bool>(
         let mut pa = [a[0].0[l], a[1].0[l], a[2].0[l]];
         let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
         violation.0[l] =
-            relax_pair::<f32, XPBD>(&mut pa, wa.0[l], &mut pb, wb.0[l], rest.0[l], &mut mu.0[l], beta, omega);
+            relax_pair::<f32, XPBD, FUSED>(&mut pa, wa.0[l], &mut pb, wb.0[l], rest.0[l], &mut mu.0[l], beta, omega);
         for k in 0..3 {
             a[k].0[l] = pa[k];
             b[k].0[l] = pb[k];
