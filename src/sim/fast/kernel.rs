@@ -359,21 +359,22 @@ pub(crate) fn correct_pair<T: Real, const XPBD: bool, const FUSED: bool>(
     (len - rest).abs()
 }
 
-/// The equal-mass form of [`relax_pair`], with the shares precomputed per
-/// particle (the lane layout's fast path, whenever every inverse mass is 0
-/// or 1). With c₁ = ω/(1 + β) (partner fixed) and c₂ = ω/(2 + β) (partner
-/// free), the share of end a is `own_a · partner_b`: `own` is 1 for a
-/// particle that moves, `partner` is c₁ for a fixed one, c₂ for a free one
-/// and 0 for lane padding (so a bar to padding moves nothing). This is the
-/// general formula for w ∈ {0, 1} without its per-bar sum and select; for
-/// rigid bars and ω = 1 it gives the same bits (`½ · 1/ℓ²` is `1/(2ℓ²)`).
+/// The equal-mass form of [`relax_pair`], with the shares precomputed (the
+/// lane layout's fast path, whenever every inverse mass is 0 or 1). With
+/// c₁ = ω/(1 + β) (partner fixed) and c₂ = ω/(2 + β) (partner free), the
+/// share of end a is `sa = own_a · partner_b` and of end b
+/// `sb = own_b · partner_a` ([`Weights`]): `own` is 1 for a particle that
+/// moves, `partner` is c₁ for a fixed one, c₂ for a free one and 0 for lane
+/// padding (so a bar to padding moves nothing). This is the general formula
+/// for w ∈ {0, 1} without its per-bar sum and select; for rigid bars and
+/// ω = 1 it gives the same bits (`½ · 1/ℓ²` is `1/(2ℓ²)`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_pair_shared<T: Real, const XPBD: bool, const FUSED: bool>(
     a: &mut Point<T>,
-    wa: Weights<T>,
+    sa: T,
     b: &mut Point<T>,
-    wb: Weights<T>,
+    sb: T,
     rest: T,
     mu: &mut T,
     beta: T,
@@ -385,8 +386,6 @@ pub(crate) fn relax_pair_shared<T: Real, const XPBD: bool, const FUSED: bool>(
     let aim = if XPBD { rest - *mu } else { rest };
     // (C + μ) ℓ = ℓ² − (L − μ) ℓ.
     let scaled = mul_sub_from::<T, FUSED>(aim, len, square);
-    let sa = wa.own * wb.partner;
-    let sb = wb.own * wa.partner;
     let (ca, cb) = ((sa * per_square) * scaled, (sb * per_square) * scaled);
     for k in 0..3 {
         a[k] = mul_add::<T, FUSED>(ca, d[k], a[k]);
@@ -646,6 +645,7 @@ mod tests {
                 let (mut ga, mut gb, mut gmu) = (a, b, 0.0f32);
                 for _ in 0..3 {
                     let (sa, sb) = (shares.weights(wa, true), shares.weights(wb, true));
+                    let (sa, sb) = (sa.own * sb.partner, sb.own * sa.partner);
                     relax_pair_shared::<f32, true, FUSED>(&mut a, sa, &mut b, sb, 1.0, &mut mu, beta);
                     relax_pair::<f32, true, FUSED>(&mut ga, wa, &mut gb, wb, 1.0, &mut gmu, beta, omega);
                 }
@@ -662,15 +662,9 @@ mod tests {
         // Padding: a bar to it moves neither end.
         let shares = Shares::new(0.0, 1.0);
         let (mut a, mut b) = ([0.0f32; 3], [2.0f32, 0.0, 0.0]);
-        relax_pair_shared::<f32, false, FUSED>(
-            &mut a,
-            shares.weights(1.0, true),
-            &mut b,
-            shares.weights(0.0, false),
-            1.0,
-            &mut 0.0,
-            0.0,
-        );
+        let (sa, sb) = (shares.weights(1.0, true), shares.weights(0.0, false));
+        let (sa, sb) = (sa.own * sb.partner, sb.own * sa.partner);
+        relax_pair_shared::<f32, false, FUSED>(&mut a, sa, &mut b, sb, 1.0, &mut 0.0, 0.0);
         assert_eq!((a, b), ([0.0; 3], [2.0, 0.0, 0.0]));
     }
 

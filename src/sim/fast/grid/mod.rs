@@ -207,6 +207,12 @@ struct Tile {
     /// (see [`super::kernel::relax_pair_shared`]), kept in step with
     /// `weight` while every weight is 0 or 1.
     shared: [Vec<Weights<F32x8>>; KINDS],
+    /// Every operation's shares ([`sweep::op_shares`], from `shared`) while
+    /// the layout is in the share form: an operation loads its two where it
+    /// loaded its slots' four. Empty otherwise. Recomputed before the next
+    /// relaxation when `op_shares_stale` (a weight of the tile was written).
+    op_shares: Vec<sweep::OpShares>,
+    op_shares_stale: bool,
     /// μ = βλ of every operation's eight bars (compliant bars only).
     multipliers: Vec<F32x8>,
     /// Every operation's eight rest lengths, when some operation's bars
@@ -638,7 +644,7 @@ impl GridLayout {
         self.refresh_shares();
     }
 
-    /// Recomputes `uniform` and every slot's shares.
+    /// Recomputes `uniform`, every slot's shares and every operation's.
     fn refresh_shares(&mut self) {
         self.reshare = false;
         self.uniform = self.tiles.iter().all(|t| t.weight.iter().all(|w| w.0.iter().all(|&w| w == 0.0 || w == 1.0)));
@@ -655,6 +661,23 @@ impl GridLayout {
                     Weights { own: F32x8(lanes.map(|w| w.own)), partner: F32x8(lanes.map(|w| w.partner)) }
                 }));
             }
+            tile.op_shares_stale = true;
+        }
+        self.refresh_op_shares();
+    }
+
+    /// Recomputes the operations' shares of every tile whose weights were
+    /// written since (once however many were), or drops them when the
+    /// layout left the share form. O(operations) a tile, between steps.
+    fn refresh_op_shares(&mut self) {
+        for tile in &mut self.tiles {
+            if !self.uniform {
+                tile.op_shares = Vec::new();
+            } else if tile.op_shares_stale {
+                tile.op_shares.clear();
+                tile.op_shares.extend(self.ops.iter().map(|&op| sweep::op_shares(&tile.shared[op.kind()], op)));
+            }
+            tile.op_shares_stale = false;
         }
     }
 
@@ -664,6 +687,8 @@ impl GridLayout {
         if shares != self.shares || self.reshare {
             self.shares = shares;
             self.refresh_shares();
+        } else {
+            self.refresh_op_shares();
         }
     }
 
@@ -686,6 +711,7 @@ impl GridLayout {
                 shared[s].own.0[l] = w.own;
                 shared[s].partner.0[l] = w.partner;
             }
+            self.tiles[t].op_shares_stale = true;
         } else {
             self.reshare = true;
         }

@@ -5,6 +5,9 @@ use rayon::prelude::*;
 
 use super::{Op, SeamBar, Slot, Tile};
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
+
+/// An operation's shares: of end a and of end b, lane by lane ([`op_shares`]).
+pub(super) type OpShares = [F32x8; 2];
 use crate::sim::fast::simd::dispatch;
 
 dispatch! {
@@ -140,14 +143,14 @@ fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FU
 ) -> f32 {
     let track = sweep.tolerance > 0.0;
     let mut worst = F32x8::splat(f32::NEG_INFINITY);
-    let Tile { position, weight, presence, shared, multipliers, rests, .. } = tile;
+    let Tile { position, weight, presence, op_shares, multipliers, rests, .. } = tile;
     for (j, &op) in sweep.ops.iter().enumerate() {
         let rest = op_rest(rests, j, op);
         let (violation, wa, wb) = relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
             position,
             weight,
             presence,
-            shared,
+            op_shares,
             multipliers,
             j,
             op,
@@ -196,7 +199,7 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
 ) {
     const LAG: usize = 3;
     let rows = row_starts.len() - 1;
-    let Tile { position, weight, presence, shared, multipliers, rests, .. } = tile;
+    let Tile { position, weight, presence, op_shares, multipliers, rests, .. } = tile;
     let mut done = 0;
     while done < sweeps {
         let depth = (sweeps - done).min(PIPELINE_DEPTH as u32) as usize;
@@ -218,7 +221,7 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
                             position,
                             weight,
                             presence,
-                            shared,
+                            op_shares,
                             multipliers,
                             start + j,
                             op,
@@ -251,7 +254,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUS
     position: &mut [Slot],
     weight: &[F32x8],
     presence: &[F32x8],
-    shared: &[Vec<Weights<F32x8>>; crate::sim::BarKind::COUNT],
+    op_shares: &[OpShares],
     multipliers: &mut [F32x8],
     j: usize,
     op: Op,
@@ -263,7 +266,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUS
     let mut dummy = F32x8::splat(0.0);
     let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
     if UNIFORM {
-        return relax_op_shared::<XPBD, FUSED>(position, &shared[op.kind()], mu, op, rest, beta);
+        return relax_op_shared::<XPBD, FUSED>(position, op_shares[j], mu, op, rest, beta);
     }
     let (mut a, mut wa) = (position[ia], weight[ia]);
     if !op.rotated() {
@@ -294,50 +297,65 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUS
     }
 }
 
-/// [`relax_op`] in the share form: the slots' precomputed shares instead of
-/// their weights. Returns the violations and each end's share (for the
-/// tolerance test, which only asks whether a bar can move).
+/// Operation `op`'s shares from its slots' (`shared`, of the operation's
+/// kind): end a's share `own_a · partner_b` and end b's `own_b · partner_a`,
+/// lane by lane (see [`relax_pair_shared`]). A rotated operation's far slot
+/// is rotated down with it, and its lane 7 (whose partner is a seam bar,
+/// projected on its own) gets share 0 at both ends: neither moves there.
+pub(super) fn op_shares(shared: &[Weights<F32x8>], op: Op) -> OpShares {
+    let (ia, ib) = op.slots();
+    let wa = shared[ia];
+    let wb = if op.rotated() {
+        let mut wb = Weights { own: shared[ib].own.rotate_down(), partner: shared[ib].partner.rotate_down() };
+        wb.own.0[LANES - 1] = 0.0;
+        wb.partner.0[LANES - 1] = 0.0;
+        wb
+    } else {
+        shared[ib]
+    };
+    [wa.own * wb.partner, wb.own * wa.partner]
+}
+
+/// [`relax_op`] in the share form: the operation's precomputed shares
+/// ([`op_shares`]) instead of its ends' weights, two loads where the
+/// slots' shares took four, two multiplies and, rotated, their shuffles.
+/// Returns the violations and each end's share (for the tolerance test,
+/// which only asks whether a bar can move).
 #[inline(always)]
 fn relax_op_shared<const XPBD: bool, const FUSED: bool>(
     position: &mut [Slot],
-    shared: &[Weights<F32x8>],
+    [sa, sb]: OpShares,
     mu: &mut F32x8,
     op: Op,
     rest: F32x8,
     beta: f32,
 ) -> (F32x8, F32x8, F32x8) {
     let (ia, ib) = op.slots();
-    let (mut a, wa) = (position[ia], shared[ia]);
-    let moves = |wa: &Weights<F32x8>, wb: &Weights<F32x8>| (wa.own * wb.partner, wb.own * wa.partner);
-    if !op.rotated() {
-        let (mut b, wb) = (position[ib], shared[ib]);
-        let v = shared_lanes::<XPBD, FUSED>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
+    let mut a = position[ia];
+    let v = if !op.rotated() {
+        let mut b = position[ib];
+        let v = shared_lanes::<XPBD, FUSED>(&mut a, sa, &mut b, sb, rest, mu, beta);
         position[ib] = b;
-        position[ia] = a;
-        let (sa, sb) = moves(&wa, &wb);
-        (v, sa, sb)
+        v
     } else {
-        // As in relax_op: lane 7's partner is a seam bar; zeroing b's own
-        // and partner there zeroes both ends' shares.
+        // Lane l meets lane l + 1 of the far slot (the next block).
         let mut b = position[ib].map(F32x8::rotate_down);
-        let mut wb = Weights { own: shared[ib].own.rotate_down(), partner: shared[ib].partner.rotate_down() };
-        wb.own.0[LANES - 1] = 0.0;
-        wb.partner.0[LANES - 1] = 0.0;
-        let v = shared_lanes::<XPBD, FUSED>(&mut a, &wa, &mut b, &wb, rest, mu, beta);
+        let v = shared_lanes::<XPBD, FUSED>(&mut a, sa, &mut b, sb, rest, mu, beta);
         position[ib] = b.map(F32x8::rotate_up);
-        position[ia] = a;
-        let (sa, sb) = moves(&wa, &wb);
-        (v, sa, sb)
-    }
+        v
+    };
+    position[ia] = a;
+    (v, sa, sb)
 }
 
 /// [`relax_lanes`] in the share form.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn shared_lanes<const XPBD: bool, const FUSED: bool>(
     a: &mut Slot,
-    wa: &Weights<F32x8>,
+    sa: F32x8,
     b: &mut Slot,
-    wb: &Weights<F32x8>,
+    sb: F32x8,
     rest: F32x8,
     mu: &mut F32x8,
     beta: f32,
@@ -346,10 +364,8 @@ fn shared_lanes<const XPBD: bool, const FUSED: bool>(
     for l in 0..LANES {
         let mut pa = [a[0].0[l], a[1].0[l], a[2].0[l]];
         let mut pb = [b[0].0[l], b[1].0[l], b[2].0[l]];
-        let wal = Weights { own: wa.own.0[l], partner: wa.partner.0[l] };
-        let wbl = Weights { own: wb.own.0[l], partner: wb.partner.0[l] };
         violation.0[l] =
-            relax_pair_shared::<f32, XPBD, FUSED>(&mut pa, wal, &mut pb, wbl, rest.0[l], &mut mu.0[l], beta);
+            relax_pair_shared::<f32, XPBD, FUSED>(&mut pa, sa.0[l], &mut pb, sb.0[l], rest.0[l], &mut mu.0[l], beta);
         for k in 0..3 {
             a[k].0[l] = pa[k];
             b[k].0[l] = pb[k];
