@@ -11,9 +11,16 @@ pub(super) type OpShares = [F32x8; 2];
 use crate::sim::fast::simd::dispatch;
 
 dispatch! {
-    /// [`sweep_tile_pipelined_body`] at the chosen SIMD level.
+    /// [`sweep_tile_pipelined_body`] at the chosen SIMD level, compiled for
+    /// AVX2 and FMA at the AVX-512 level too: with AVX-512 enabled the
+    /// compiler joins an operation's x and y rows into 512-bit registers
+    /// (two `vinsertf64x4` an operation), which Zen 4 runs as two halves;
+    /// the AVX2 code took the seed's step from 59.4–67.1 to 54.6–55.1 µs on
+    /// host D (alternated runs). The tiles' own sweep ([`sweep_tile`]) keeps
+    /// AVX-512: there it was the faster (256 × 256 on one thread 6.05–6.17
+    /// against 6.34–6.43 ms).
     pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32)
-        = sweep_tile_pipelined_body::<fused>, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
+        = sweep_tile_pipelined_body::<fused>, best = ["x86_64+avx2+fma"]
 }
 
 /// What every sweep of a substep needs.
