@@ -173,8 +173,10 @@ fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FU
 
 /// Sweeps a tile `sweeps` times, giving exactly the result of
 /// [`sweep_tile`] called `sweeps` times, but with up to [`PIPELINE_DEPTH`]
-/// sweeps in flight: sweep s + 1 works on row r − 3 while sweep s works on
-/// row r.
+/// sweeps in flight: sweep s + 1 works on row r − 3 (or further back) while
+/// sweep s works on row r, and a sweep starts as soon as one of the four
+/// has finished (and it is three rows behind the last to start), so that
+/// four are in flight but at the first and last rows of the substep.
 ///
 /// This is exact because the bars starting in row r touch rows r to r + 2
 /// only: operations of rows three or more apart touch disjoint particles and
@@ -206,40 +208,52 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
 ) {
     const LAG: usize = 3;
     let rows = row_starts.len() - 1;
+    let sweeps = sweeps as usize;
+    if rows == 0 {
+        return;
+    }
     let Tile { position, weight, presence, op_shares, multipliers, rests, .. } = tile;
-    let mut done = 0;
-    while done < sweeps {
-        let depth = (sweeps - done).min(PIPELINE_DEPTH as u32) as usize;
-        for t in 0..rows + LAG * (depth - 1) {
-            // The rows in flight at time t, one per sweep.
-            let mut groups = [(0usize, 0usize); PIPELINE_DEPTH];
-            let mut longest = 0;
-            for (s, group) in groups.iter_mut().enumerate().take(depth) {
-                if let Some(r) = t.checked_sub(LAG * s).filter(|&r| r < rows) {
-                    *group = (row_starts[r] as usize, row_starts[r + 1] as usize);
-                    longest = longest.max(group.1 - group.0);
-                }
-            }
-            for j in 0..longest {
-                for &(start, end) in &groups[..depth] {
-                    if start + j < end {
-                        let op = sweep.ops[start + j];
-                        relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
-                            position,
-                            weight,
-                            presence,
-                            op_shares,
-                            multipliers,
-                            start + j,
-                            op,
-                            op_rest(rests, start + j, op),
-                            sweep,
-                        );
-                    }
+    // When each sweep in flight started (sweep k at `begun[k % DEPTH]`):
+    // sweeps `oldest..started` are in flight, the oldest the furthest on.
+    let mut begun = [0usize; PIPELINE_DEPTH];
+    let (mut oldest, mut started, mut t) = (0usize, 0usize, 0usize);
+    while oldest < sweeps {
+        while oldest < started && t - begun[oldest % PIPELINE_DEPTH] >= rows {
+            oldest += 1;
+        }
+        let behind_the_last = started == 0 || t >= begun[(started - 1) % PIPELINE_DEPTH] + LAG;
+        if started < sweeps && started - oldest < PIPELINE_DEPTH && behind_the_last {
+            begun[started % PIPELINE_DEPTH] = t;
+            started += 1;
+        }
+        // The rows in flight at time t, one per sweep.
+        let in_flight = started - oldest;
+        let mut groups = [(0usize, 0usize); PIPELINE_DEPTH];
+        let mut longest = 0;
+        for (i, group) in groups.iter_mut().enumerate().take(in_flight) {
+            let r = t - begun[(oldest + i) % PIPELINE_DEPTH];
+            *group = (row_starts[r] as usize, row_starts[r + 1] as usize);
+            longest = longest.max(group.1 - group.0);
+        }
+        for j in 0..longest {
+            for &(start, end) in &groups[..in_flight] {
+                if start + j < end {
+                    let op = sweep.ops[start + j];
+                    relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
+                        position,
+                        weight,
+                        presence,
+                        op_shares,
+                        multipliers,
+                        start + j,
+                        op,
+                        op_rest(rests, start + j, op),
+                        sweep,
+                    );
                 }
             }
         }
-        done += depth as u32;
+        t += 1;
     }
 }
 

@@ -203,26 +203,35 @@ fn a_sweep_equals_the_reference_loop_in_the_same_order() {
 
 #[test]
 fn overlapped_sweeps_are_bit_identical_to_sequential_ones() {
-    let mesh = Grid { columns: 20, rows: 30, spacing: 0.1, ..Grid::default() }.build().unwrap();
-    let start = jittered(mesh.positions(), 0.02);
-    for compliance in [0.0, 1e-3] {
-        let mut overlapped = GridLayout::new(&mesh, &start, &start, &weights(&mesh), None).unwrap();
-        let mut sequential = overlapped.clone();
-        // 7 sweeps: one group of 4 in flight, then one of 3.
-        let s = Substep {
-            keep: 0.98,
-            accel: Vec3::new(0.0, -1e-3, 0.0),
-            stretch_beta: compliance,
-            bend_beta: 10.0 * compliance,
-            shear_beta: 3.0 * compliance,
-            over_relaxation: 1.3,
-            ..substep(7)
-        };
-        step(&mut overlapped, &s);
-        // The same substep with a tolerance too small to ever stop early
-        // takes the one-sweep-at-a-time path.
-        step(&mut sequential, &Substep { tolerance: 1e-30, ..s });
-        assert_eq!(bits(&overlapped), bits(&sequential), "compliance {compliance}");
+    // The seed's 30 rows with 7 and 20 sweeps (four in flight, a new one
+    // starting whenever one finishes), and short cloths of 5 and 2 rows,
+    // where a sweep finishes before the next can start three rows behind.
+    // With sweeps one row apart instead of three, operations that share
+    // particles run out of order and this test fails (a mutation run).
+    // Two rows apart happens to keep this grid's order: the only class
+    // that reaches two rows down (BV) comes last in a row.
+    for (rows, sweeps) in [(30, 7), (30, 20), (5, 9), (2, 5)] {
+        let mesh = Grid { columns: 20, rows, spacing: 0.1, ..Grid::default() }.build().unwrap();
+        let start = jittered(mesh.positions(), 0.02);
+        for compliance in [0.0, 1e-3] {
+            let mut overlapped = GridLayout::new(&mesh, &start, &start, &weights(&mesh), None).unwrap();
+            let mut sequential = overlapped.clone();
+            let s = Substep {
+                keep: 0.98,
+                accel: Vec3::new(0.0, -1e-3, 0.0),
+                stretch_beta: compliance,
+                bend_beta: 10.0 * compliance,
+                shear_beta: 3.0 * compliance,
+                over_relaxation: 1.3,
+                ..substep(sweeps)
+            };
+            step(&mut overlapped, &s);
+            // The same substep with a tolerance too small to ever stop
+            // early takes the one-sweep-at-a-time path.
+            step(&mut sequential, &Substep { tolerance: 1e-30, ..s });
+            let what = format!("{rows} rows, {sweeps} sweeps, compliance {compliance}");
+            assert_eq!(bits(&overlapped), bits(&sequential), "{what}");
+        }
     }
 }
 
