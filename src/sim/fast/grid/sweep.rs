@@ -5,10 +5,10 @@ use rayon::prelude::*;
 
 use super::{Op, SeamBar, Slot, Tile};
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
+use crate::sim::fast::simd::dispatch;
 
 /// An operation's shares: of end a and of end b, lane by lane ([`op_shares`]).
 pub(super) type OpShares = [F32x8; 2];
-use crate::sim::fast::simd::dispatch;
 
 dispatch! {
     /// [`sweep_tile_pipelined_body`] at the chosen SIMD level, compiled for
