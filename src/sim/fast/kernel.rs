@@ -41,7 +41,7 @@
 //! lane layout fuses wherever its level has FMA (AVX2, AVX-512, and a
 //! portable build whose target has it, [`super::simd::PORTABLE_FUSED`]):
 //! nine fewer instructions an 8-bar operation and a shorter chain, the
-//! seed's step 69.7–72.5 → 62.9–63.6 µs on host D. The coloured path does
+//! seed's step 69.7–72.5 → 61.9–63.6 µs on host D. The coloured path does
 //! not fuse: it gained nothing (its octets are bound by moving rows in and
 //! out, not by this arithmetic), and unfused it gives the same bits at
 //! every level.
@@ -406,6 +406,16 @@ pub(crate) struct Weights<T> {
     pub(crate) partner: T,
 }
 
+impl<T: Real> Weights<T> {
+    /// The shares of a bar from this particle (end a) to `b`:
+    /// `[own_a · partner_b, own_b · partner_a]`, those of
+    /// [`relax_pair_shared`].
+    #[inline(always)]
+    pub(crate) fn shares(self, b: Weights<T>) -> [T; 2] {
+        [self.own * b.partner, b.own * self.partner]
+    }
+}
+
 /// c₁ and c₂ of [`relax_pair_shared`] for one kind of bar.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Shares {
@@ -644,8 +654,7 @@ mod tests {
                 let (mut a, mut b, mut mu) = ([0.1f32, 0.2, 0.0], [1.9f32, 0.3, -0.2], 0.0f32);
                 let (mut ga, mut gb, mut gmu) = (a, b, 0.0f32);
                 for _ in 0..3 {
-                    let (sa, sb) = (shares.weights(wa, true), shares.weights(wb, true));
-                    let (sa, sb) = (sa.own * sb.partner, sb.own * sa.partner);
+                    let [sa, sb] = shares.weights(wa, true).shares(shares.weights(wb, true));
                     relax_pair_shared::<f32, true, FUSED>(&mut a, sa, &mut b, sb, 1.0, &mut mu, beta);
                     relax_pair::<f32, true, FUSED>(&mut ga, wa, &mut gb, wb, 1.0, &mut gmu, beta, omega);
                 }
@@ -662,8 +671,7 @@ mod tests {
         // Padding: a bar to it moves neither end.
         let shares = Shares::new(0.0, 1.0);
         let (mut a, mut b) = ([0.0f32; 3], [2.0f32, 0.0, 0.0]);
-        let (sa, sb) = (shares.weights(1.0, true), shares.weights(0.0, false));
-        let (sa, sb) = (sa.own * sb.partner, sb.own * sa.partner);
+        let [sa, sb] = shares.weights(1.0, true).shares(shares.weights(0.0, false));
         relax_pair_shared::<f32, false, FUSED>(&mut a, sa, &mut b, sb, 1.0, &mut 0.0, 0.0);
         assert_eq!((a, b), ([0.0; 3], [2.0, 0.0, 0.0]));
     }

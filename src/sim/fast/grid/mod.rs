@@ -693,7 +693,9 @@ impl GridLayout {
     }
 
     /// Writes one particle's weight; keeps its shares in step (a write of
-    /// one lane), or leaves the share form if the weight is not 0 or 1.
+    /// one lane, and its tile's operations' shares marked for recomputing
+    /// before the next relaxation), or leaves the share form if the weight
+    /// is not 0 or 1.
     /// A 0 or 1 written outside the share form may let the layout return to
     /// it: the next relaxation checks, once, however many weights were
     /// written (checking at every write made a change of every weight

@@ -319,8 +319,7 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUS
 }
 
 /// Operation `op`'s shares from its slots' (`shared`, of the operation's
-/// kind): end a's share `own_a · partner_b` and end b's `own_b · partner_a`,
-/// lane by lane (see [`relax_pair_shared`]). A rotated operation's far slot
+/// kind), lane by lane ([`Weights::shares`]). A rotated operation's far slot
 /// is rotated down with it, and its lane 7 (whose partner is a seam bar,
 /// projected on its own) gets share 0 at both ends: neither moves there.
 pub(super) fn op_shares(shared: &[Weights<F32x8>], op: Op) -> OpShares {
@@ -334,7 +333,7 @@ pub(super) fn op_shares(shared: &[Weights<F32x8>], op: Op) -> OpShares {
     } else {
         shared[ib]
     };
-    [wa.own * wb.partner, wb.own * wa.partner]
+    wa.shares(wb)
 }
 
 /// [`relax_op`] in the share form: the operation's precomputed shares
