@@ -73,10 +73,17 @@ pub(super) fn relax_pass(
     #[cfg(target_arch = "x86_64")]
     if lanes && simd::level() >= SimdLevel::Avx2 {
         // SAFETY: `simd::level` is AVX2 or above only when the CPU reports
-        // AVX2 and FMA (`SimdLevel::best_available`), the features
-        // `avx2::relax_pass` is compiled for; the particles are as many as
-        // the colouring's ends index (checked above).
-        return unsafe { avx2::relax_pass(particles, colouring, mu, sweep) };
+        // AVX2 and FMA, and AVX-512 only when it also reports AVX-512 F and
+        // VL (`SimdLevel::best_available`): the features `avx2::relax_pass`
+        // and `avx512::relax_pass` are compiled for. The particles are as
+        // many as the colouring's ends index (checked above).
+        return unsafe {
+            if simd::level() == SimdLevel::Avx512 {
+                avx512::relax_pass(particles, colouring, mu, sweep)
+            } else {
+                avx2::relax_pass(particles, colouring, mu, sweep)
+            }
+        };
     }
     let _ = (lanes, SimdLevel::Avx2);
     let xpbd = sweep.betas.iter().any(|&b| b > 0.0);
@@ -139,295 +146,320 @@ fn relax_one<const XPBD: bool>(
 /// [`Colouring::particles`]), and [`super::relax_pass`] checks that the
 /// particles are that many; the bounds checks of 32 indexed loads and stores
 /// an octet were a tenth of the pass (measured in the README).
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-mod avx2 {
-    use std::arch::x86_64::{
-        __m128, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
-        _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_permutevar8x32_ps, _mm256_setr_ps, _mm256_storeu_ps,
-    };
+///
+/// One source, two modules: `avx2` compiled for AVX2 + FMA, `avx512` for
+/// AVX-512 F + VL as well. The second still computes on 256-bit registers
+/// (the same instructions, so the same bits), but has 32 of them where AVX2
+/// has 16: an octet started, its ends, weights, vector and length (twelve
+/// registers), stays in registers across the next octet's start instead of
+/// going to the stack. Stack references in the pass 1 042 → 630, and on a
+/// Zen 4 the tablecloth's step ~4 % and disc-183's ~5–10 % shorter (both
+/// builds in one process, alternated: `docs/performance.md`).
+macro_rules! octets {
+    ($module:ident, $features:literal) => {
+        #[cfg(target_arch = "x86_64")]
+        #[allow(unsafe_code)]
+        mod $module {
+            use std::arch::x86_64::{
+                __m128, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
+                _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_permutevar8x32_ps, _mm256_setr_ps, _mm256_storeu_ps,
+            };
 
-    use super::{BarColumns, Colouring, Particle, Sweep};
-    use crate::sim::fast::avx::{Avx, transpose_pairs, transpose_rows, untranspose_rows};
-    use crate::sim::fast::kernel::{LANES, Point, Real, bar_square, correct_pair, excess};
+            use super::{BarColumns, Colouring, Particle, Sweep};
+            use crate::sim::fast::avx::{Avx, transpose_pairs, transpose_rows, untranspose_rows};
+            use crate::sim::fast::kernel::{LANES, Point, Real, bar_square, correct_pair, excess};
 
-    /// [`super::relax_pass`] with eight bars at a time.
-    ///
-    /// # Safety
-    /// The CPU has AVX2 and FMA, and `particles.len() >= colouring.particles`.
-    #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn relax_pass(
-        particles: &mut [Particle],
-        colouring: &Colouring,
-        mu: &mut [f32],
-        sweep: &Sweep,
-    ) -> f32 {
-        let columns = Columns::new(&colouring.bars, mu);
-        // SAFETY: the caller's promise, passed on.
-        unsafe {
-            match (sweep.betas.iter().any(|&b| b > 0.0), sweep.tolerance > 0.0) {
-                (true, true) => relax_colours::<true, true>(particles, colouring, columns, mu, sweep),
-                (true, false) => relax_colours::<true, false>(particles, colouring, columns, mu, sweep),
-                (false, true) => relax_colours::<false, true>(particles, colouring, columns, mu, sweep),
-                (false, false) => relax_colours::<false, false>(particles, colouring, columns, mu, sweep),
-            }
-        }
-    }
-
-    /// The bar columns and the multipliers as pointers, checked once a pass
-    /// to be as long as one another (the multipliers' pointer is taken anew
-    /// for each colour, as the particles' rows are): an octet reads eight of each without
-    /// a bounds check (the checks, the loop's iterator and the excess when
-    /// no tolerance is set were about 30 of an octet's 142 instructions).
-    #[derive(Clone, Copy)]
-    struct Columns {
-        a: *const u32,
-        b: *const u32,
-        rest: *const f32,
-        kind: *const u8,
-        mu: *mut f32,
-    }
-
-    impl Columns {
-        fn new(bars: &BarColumns, mu: &mut [f32]) -> Self {
-            let n = mu.len();
-            assert!(
-                bars.a.len() == n && bars.b.len() == n && bars.rest.len() == n && bars.kind.len() == n,
-                "the colouring's columns and multipliers differ in length"
-            );
-            Columns {
-                a: bars.a.as_ptr(),
-                b: bars.b.as_ptr(),
-                rest: bars.rest.as_ptr(),
-                kind: bars.kind.as_ptr(),
-                mu: mu.as_mut_ptr(),
-            }
-        }
-    }
-
-    /// Colour by colour, octets pipelined, then the colour's last bars one at
-    /// a time ([`super::relax_one`]).
-    ///
-    /// # Safety
-    /// As [`relax_pass`].
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn relax_colours<const XPBD: bool, const TOLERANCE: bool>(
-        particles: &mut [Particle],
-        colouring: &Colouring,
-        columns: Columns,
-        mu: &mut [f32],
-        sweep: &Sweep,
-    ) -> f32 {
-        let bars = &colouring.bars;
-        let mut worst = f32::NEG_INFINITY;
-        for c in 0..colouring.ends.len() {
-            let range = colouring.colour(c);
-            let mut next = range.start;
-            if c < colouring.independent {
-                // Taken anew for each colour: the last colour's bars after
-                // its octets went through `particles` and `mu` themselves.
-                let rows = particles.as_mut_ptr().cast::<f32>();
-                let cols = Columns { mu: mu.as_mut_ptr(), ..columns };
-                let ([both, a_end, others], rest) = colouring.live(c);
-                // SAFETY (each call): `rows` holds `colouring.particles`
-                // rows (the caller's promise), every end of the colouring is
-                // below that, the octets are within the columns (a colour
-                // is), and the colouring lays out the octets paired at both
-                // ends and at end a as `octets_of` requires.
+            /// [`super::relax_pass`] with eight bars at a time.
+            ///
+            /// # Safety
+            /// The CPU has the features this module is compiled for (`octets!`),
+            /// and `particles.len() >= colouring.particles`.
+            #[target_feature(enable = $features)]
+            pub(super) unsafe fn relax_pass(
+                particles: &mut [Particle],
+                colouring: &Colouring,
+                mu: &mut [f32],
+                sweep: &Sweep,
+            ) -> f32 {
+                let columns = Columns::new(&colouring.bars, mu);
+                // SAFETY: the caller's promise, passed on.
                 unsafe {
-                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, cols, both, sweep));
-                    worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, cols, a_end, sweep));
-                    worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, cols, others, sweep));
+                    match (sweep.betas.iter().any(|&b| b > 0.0), sweep.tolerance > 0.0) {
+                        (true, true) => relax_colours::<true, true>(particles, colouring, columns, mu, sweep),
+                        (true, false) => relax_colours::<true, false>(particles, colouring, columns, mu, sweep),
+                        (false, true) => relax_colours::<false, true>(particles, colouring, columns, mu, sweep),
+                        (false, false) => relax_colours::<false, false>(particles, colouring, columns, mu, sweep),
+                    }
                 }
-                next = rest;
             }
-            for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
-                worst = worst.max(super::relax_one::<XPBD>(particles, bars, i, mu, sweep));
+
+            /// The bar columns and the multipliers as pointers, checked once a pass
+            /// to be as long as one another (the multipliers' pointer is taken anew
+            /// for each colour, as the particles' rows are): an octet reads eight of each without
+            /// a bounds check (the checks, the loop's iterator and the excess when
+            /// no tolerance is set were about 30 of an octet's 142 instructions).
+            #[derive(Clone, Copy)]
+            struct Columns {
+                a: *const u32,
+                b: *const u32,
+                rest: *const f32,
+                kind: *const u8,
+                mu: *mut f32,
             }
-        }
-        worst
-    }
 
-    /// The octets `range` (of one colour, a multiple of eight bars),
-    /// pipelined. With `PA` (`PB`), each octet's lane l + 4 has as end a
-    /// (b) the row after lane l's, and each pair of rows is loaded and
-    /// stored as one 32 bytes.
-    ///
-    /// # Safety
-    /// As [`start`].
-    #[inline(always)]
-    unsafe fn octets_of<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
-        rows: *mut f32,
-        columns: Columns,
-        range: std::ops::Range<usize>,
-        sweep: &Sweep,
-    ) -> f32 {
-        let mut worst = f32::NEG_INFINITY;
-        if range.is_empty() {
-            return worst;
-        }
-        // SAFETY (each `start` and `finish`): the caller's promise.
-        let mut pending = unsafe { start::<PA, PB>(rows, columns, range.start) };
-        let mut next = range.start + LANES;
-        while next < range.end {
-            let started = unsafe { start::<PA, PB>(rows, columns, next) };
-            worst = worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) });
-            pending = started;
-            next += LANES;
-        }
-        worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) })
-    }
-
-    /// An octet started: its first bar, its ends and weights in lanes, and
-    /// the bars' vectors d and squared lengths ℓ².
-    #[derive(Clone, Copy)]
-    struct Started {
-        first: usize,
-        a: Point<Avx>,
-        wa: Avx,
-        b: Point<Avx>,
-        wb: Avx,
-        d: Point<Avx>,
-        square: Avx,
-    }
-
-    /// Loads bars `first..first + 8`'s ends and takes their squared lengths.
-    ///
-    /// # Safety
-    /// AVX2 is available; bars `first..first + 8` are within `columns`;
-    /// every end of these bars indexes a row of `rows`; with `PA` (`PB`),
-    /// each lane l + 4's end a (b) is the row after lane l's.
-    #[inline(always)]
-    unsafe fn start<const PA: bool, const PB: bool>(rows: *const f32, columns: Columns, first: usize) -> Started {
-        // SAFETY: the caller's promise.
-        let (ia, ib) = unsafe { ends(columns, first) };
-        // SAFETY: the caller's promise.
-        let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
-        let (d, square) = bar_square::<Avx, false>(&a, &b);
-        Started { first, a, wa, b, wb, d, square }
-    }
-
-    /// Projects a started octet and stores its ends; returns its largest
-    /// excess (as [`super::relax_one`]).
-    ///
-    /// # Safety
-    /// As [`start`], and no particle was stored between the octet's start
-    /// and this call.
-    #[inline(always)]
-    unsafe fn finish<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
-        rows: *mut f32,
-        columns: Columns,
-        started: Started,
-        sweep: &Sweep,
-    ) -> f32 {
-        let Started { first, mut a, wa, mut b, wb, d, square } = started;
-        // SAFETY: bars `first..first + 8` are within the columns (the
-        // caller's promise); AVX2 is available.
-        let rest = unsafe { Avx(_mm256_loadu_ps(columns.rest.add(first))) };
-        // Not compliant: every β is 0.
-        // SAFETY: as above.
-        let beta = if XPBD { unsafe { betas(columns.kind.add(first), sweep) } } else { Avx::splat(0.0) };
-        // SAFETY: as above.
-        let mut mu8 = if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
-        let omega = Avx::splat(sweep.omega);
-        let v = correct_pair::<Avx, XPBD, false>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
-        // SAFETY: the caller's promise.
-        unsafe {
-            if XPBD {
-                _mm256_storeu_ps(columns.mu.add(first), mu8.0);
+            impl Columns {
+                fn new(bars: &BarColumns, mu: &mut [f32]) -> Self {
+                    let n = mu.len();
+                    assert!(
+                        bars.a.len() == n && bars.b.len() == n && bars.rest.len() == n && bars.kind.len() == n,
+                        "the colouring's columns and multipliers differ in length"
+                    );
+                    Columns {
+                        a: bars.a.as_ptr(),
+                        b: bars.b.as_ptr(),
+                        rest: bars.rest.as_ptr(),
+                        kind: bars.kind.as_ptr(),
+                        mu: mu.as_mut_ptr(),
+                    }
+                }
             }
-            let (ia, ib) = ends(columns, first);
-            scatter::<PA>(rows, &ia, a, wa);
-            scatter::<PB>(rows, &ib, b, wb);
-        }
-        if TOLERANCE {
-            excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest).lanes().into_iter().fold(f32::NEG_INFINITY, Real::max)
-        } else {
-            f32::NEG_INFINITY
-        }
-    }
 
-    /// β of eight bars, by kind: their eight kind bytes (at `kind`),
-    /// widened to lanes, pick from the kinds' β (`vpermps`) where eight
-    /// checked table lookups went through memory before.
-    ///
-    /// # Safety
-    /// AVX2 is available; `kind` points at eight bytes.
-    #[inline(always)]
-    unsafe fn betas(kind: *const u8, sweep: &Sweep) -> Avx {
-        // SAFETY: the caller's promise.
-        let kinds = unsafe { kind.cast::<[u8; LANES]>().read_unaligned() };
-        let [b0, b1, b2] = sweep.betas;
-        // SAFETY: AVX2 is available (the caller's promise). A kind is below
-        // `BarKind::COUNT` = 3; `vpermps` reads only the low three bits of
-        // each index, so no lane can pick outside the register.
-        unsafe {
-            let table = _mm256_setr_ps(b0, b1, b2, 0.0, 0.0, 0.0, 0.0, 0.0);
-            let index = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(kinds)));
-            Avx(_mm256_permutevar8x32_ps(table, index))
-        }
-    }
-
-    /// The ends of bars `first..first + 8`.
-    ///
-    /// # Safety
-    /// Bars `first..first + 8` are within `columns`.
-    #[inline(always)]
-    unsafe fn ends(columns: Columns, first: usize) -> ([u32; LANES], [u32; LANES]) {
-        // SAFETY: the caller's promise.
-        unsafe {
-            (
-                columns.a.add(first).cast::<[u32; LANES]>().read_unaligned(),
-                columns.b.add(first).cast::<[u32; LANES]>().read_unaligned(),
-            )
-        }
-    }
-
-    /// Eight particles (x y z w each) transposed into lanes: positions and
-    /// weights. Each row takes a 16-byte load; `PAIRED`, lanes l and l + 4
-    /// (rows `index[l]` and the next) take one 32-byte load.
-    ///
-    /// # Safety
-    /// AVX2 is available; every index is a row of `rows`; `PAIRED`, each
-    /// `index[l + 4]` is the row after `index[l]`.
-    #[inline(always)]
-    unsafe fn gather<const PAIRED: bool>(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
-        // SAFETY: the caller's promise (each offset is a row's first f32;
-        // paired, the next row is lane l + 4's).
-        let [x, y, z, w] = unsafe {
-            if PAIRED {
-                let pair = |l: usize| _mm256_loadu_ps(rows.add(index[l] as usize));
-                transpose_pairs([pair(0), pair(1), pair(2), pair(3)])
-            } else {
-                let row = |l: usize| -> __m128 { _mm_loadu_ps(rows.add(index[l] as usize)) };
-                transpose_rows([row(0), row(1), row(2), row(3), row(4), row(5), row(6), row(7)])
+            /// Colour by colour, octets pipelined, then the colour's last bars one at
+            /// a time ([`super::relax_one`]).
+            ///
+            /// # Safety
+            /// As [`relax_pass`].
+            #[target_feature(enable = $features)]
+            unsafe fn relax_colours<const XPBD: bool, const TOLERANCE: bool>(
+                particles: &mut [Particle],
+                colouring: &Colouring,
+                columns: Columns,
+                mu: &mut [f32],
+                sweep: &Sweep,
+            ) -> f32 {
+                let bars = &colouring.bars;
+                let mut worst = f32::NEG_INFINITY;
+                for c in 0..colouring.ends.len() {
+                    let range = colouring.colour(c);
+                    let mut next = range.start;
+                    if c < colouring.independent {
+                        // Taken anew for each colour: the last colour's bars after
+                        // its octets went through `particles` and `mu` themselves.
+                        let rows = particles.as_mut_ptr().cast::<f32>();
+                        let cols = Columns { mu: mu.as_mut_ptr(), ..columns };
+                        let ([both, a_end, others], rest) = colouring.live(c);
+                        // SAFETY (each call): `rows` holds `colouring.particles`
+                        // rows (the caller's promise), every end of the colouring is
+                        // below that, the octets are within the columns (a colour
+                        // is), and the colouring lays out the octets paired at both
+                        // ends and at end a as `octets_of` requires.
+                        unsafe {
+                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, cols, both, sweep));
+                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, cols, a_end, sweep));
+                            worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, cols, others, sweep));
+                        }
+                        next = rest;
+                    }
+                    for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
+                        worst = worst.max(super::relax_one::<XPBD>(particles, bars, i, mu, sweep));
+                    }
+                }
+                worst
             }
-        };
-        ([x, y, z], w)
-    }
 
-    /// The inverse of [`gather`]: particle `index[l]` takes lane l.
-    ///
-    /// # Safety
-    /// As [`gather`].
-    #[inline(always)]
-    unsafe fn scatter<const PAIRED: bool>(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
-        // Register l holds row l in its low half and row l + 4 in its high.
-        let pairs = untranspose_rows([x, y, z, w]);
-        // SAFETY: AVX2 is available and every index is a row of `rows`
-        // (paired, the next row is lane l + 4's): the caller's promise.
-        unsafe {
-            for (l, pair) in pairs.into_iter().enumerate() {
-                if PAIRED {
-                    _mm256_storeu_ps(rows.add(index[l] as usize), pair);
+            /// The octets `range` (of one colour, a multiple of eight bars),
+            /// pipelined. With `PA` (`PB`), each octet's lane l + 4 has as end a
+            /// (b) the row after lane l's, and each pair of rows is loaded and
+            /// stored as one 32 bytes.
+            ///
+            /// # Safety
+            /// As [`start`].
+            #[inline(always)]
+            unsafe fn octets_of<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
+                rows: *mut f32,
+                columns: Columns,
+                range: std::ops::Range<usize>,
+                sweep: &Sweep,
+            ) -> f32 {
+                let mut worst = f32::NEG_INFINITY;
+                if range.is_empty() {
+                    return worst;
+                }
+                // SAFETY (each `start` and `finish`): the caller's promise.
+                let mut pending = unsafe { start::<PA, PB>(rows, columns, range.start) };
+                let mut next = range.start + LANES;
+                while next < range.end {
+                    let started = unsafe { start::<PA, PB>(rows, columns, next) };
+                    worst = worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) });
+                    pending = started;
+                    next += LANES;
+                }
+                worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) })
+            }
+
+            /// An octet started: its first bar, its ends and weights in lanes, and
+            /// the bars' vectors d and squared lengths ℓ².
+            #[derive(Clone, Copy)]
+            struct Started {
+                first: usize,
+                a: Point<Avx>,
+                wa: Avx,
+                b: Point<Avx>,
+                wb: Avx,
+                d: Point<Avx>,
+                square: Avx,
+            }
+
+            /// Loads bars `first..first + 8`'s ends and takes their squared lengths.
+            ///
+            /// # Safety
+            /// AVX2 is available; bars `first..first + 8` are within `columns`;
+            /// every end of these bars indexes a row of `rows`; with `PA` (`PB`),
+            /// each lane l + 4's end a (b) is the row after lane l's.
+            #[inline(always)]
+            unsafe fn start<const PA: bool, const PB: bool>(
+                rows: *const f32,
+                columns: Columns,
+                first: usize,
+            ) -> Started {
+                // SAFETY: the caller's promise.
+                let (ia, ib) = unsafe { ends(columns, first) };
+                // SAFETY: the caller's promise.
+                let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
+                let (d, square) = bar_square::<Avx, false>(&a, &b);
+                Started { first, a, wa, b, wb, d, square }
+            }
+
+            /// Projects a started octet and stores its ends; returns its largest
+            /// excess (as [`super::relax_one`]).
+            ///
+            /// # Safety
+            /// As [`start`], and no particle was stored between the octet's start
+            /// and this call.
+            #[inline(always)]
+            unsafe fn finish<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
+                rows: *mut f32,
+                columns: Columns,
+                started: Started,
+                sweep: &Sweep,
+            ) -> f32 {
+                let Started { first, mut a, wa, mut b, wb, d, square } = started;
+                // SAFETY: bars `first..first + 8` are within the columns (the
+                // caller's promise); AVX2 is available.
+                let rest = unsafe { Avx(_mm256_loadu_ps(columns.rest.add(first))) };
+                // Not compliant: every β is 0.
+                // SAFETY: as above.
+                let beta = if XPBD { unsafe { betas(columns.kind.add(first), sweep) } } else { Avx::splat(0.0) };
+                // SAFETY: as above.
+                let mut mu8 =
+                    if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
+                let omega = Avx::splat(sweep.omega);
+                let v =
+                    correct_pair::<Avx, XPBD, false>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
+                // SAFETY: the caller's promise.
+                unsafe {
+                    if XPBD {
+                        _mm256_storeu_ps(columns.mu.add(first), mu8.0);
+                    }
+                    let (ia, ib) = ends(columns, first);
+                    scatter::<PA>(rows, &ia, a, wa);
+                    scatter::<PB>(rows, &ib, b, wb);
+                }
+                if TOLERANCE {
+                    excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest)
+                        .lanes()
+                        .into_iter()
+                        .fold(f32::NEG_INFINITY, Real::max)
                 } else {
-                    _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
-                    _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
+                    f32::NEG_INFINITY
+                }
+            }
+
+            /// β of eight bars, by kind: their eight kind bytes (at `kind`),
+            /// widened to lanes, pick from the kinds' β (`vpermps`) where eight
+            /// checked table lookups went through memory before.
+            ///
+            /// # Safety
+            /// AVX2 is available; `kind` points at eight bytes.
+            #[inline(always)]
+            unsafe fn betas(kind: *const u8, sweep: &Sweep) -> Avx {
+                // SAFETY: the caller's promise.
+                let kinds = unsafe { kind.cast::<[u8; LANES]>().read_unaligned() };
+                let [b0, b1, b2] = sweep.betas;
+                // SAFETY: AVX2 is available (the caller's promise). A kind is below
+                // `BarKind::COUNT` = 3; `vpermps` reads only the low three bits of
+                // each index, so no lane can pick outside the register.
+                unsafe {
+                    let table = _mm256_setr_ps(b0, b1, b2, 0.0, 0.0, 0.0, 0.0, 0.0);
+                    let index = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(kinds)));
+                    Avx(_mm256_permutevar8x32_ps(table, index))
+                }
+            }
+
+            /// The ends of bars `first..first + 8`.
+            ///
+            /// # Safety
+            /// Bars `first..first + 8` are within `columns`.
+            #[inline(always)]
+            unsafe fn ends(columns: Columns, first: usize) -> ([u32; LANES], [u32; LANES]) {
+                // SAFETY: the caller's promise.
+                unsafe {
+                    (
+                        columns.a.add(first).cast::<[u32; LANES]>().read_unaligned(),
+                        columns.b.add(first).cast::<[u32; LANES]>().read_unaligned(),
+                    )
+                }
+            }
+
+            /// Eight particles (x y z w each) transposed into lanes: positions and
+            /// weights. Each row takes a 16-byte load; `PAIRED`, lanes l and l + 4
+            /// (rows `index[l]` and the next) take one 32-byte load.
+            ///
+            /// # Safety
+            /// AVX2 is available; every index is a row of `rows`; `PAIRED`, each
+            /// `index[l + 4]` is the row after `index[l]`.
+            #[inline(always)]
+            unsafe fn gather<const PAIRED: bool>(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
+                // SAFETY: the caller's promise (each offset is a row's first f32;
+                // paired, the next row is lane l + 4's).
+                let [x, y, z, w] = unsafe {
+                    if PAIRED {
+                        let pair = |l: usize| _mm256_loadu_ps(rows.add(index[l] as usize));
+                        transpose_pairs([pair(0), pair(1), pair(2), pair(3)])
+                    } else {
+                        let row = |l: usize| -> __m128 { _mm_loadu_ps(rows.add(index[l] as usize)) };
+                        transpose_rows([row(0), row(1), row(2), row(3), row(4), row(5), row(6), row(7)])
+                    }
+                };
+                ([x, y, z], w)
+            }
+
+            /// The inverse of [`gather`]: particle `index[l]` takes lane l.
+            ///
+            /// # Safety
+            /// As [`gather`].
+            #[inline(always)]
+            unsafe fn scatter<const PAIRED: bool>(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
+                // Register l holds row l in its low half and row l + 4 in its high.
+                let pairs = untranspose_rows([x, y, z, w]);
+                // SAFETY: AVX2 is available and every index is a row of `rows`
+                // (paired, the next row is lane l + 4's): the caller's promise.
+                unsafe {
+                    for (l, pair) in pairs.into_iter().enumerate() {
+                        if PAIRED {
+                            _mm256_storeu_ps(rows.add(index[l] as usize), pair);
+                        } else {
+                            _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
+                            _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
+                        }
+                    }
                 }
             }
         }
-    }
+    };
 }
+octets!(avx2, "avx2,fma");
+octets!(avx512, "avx2,fma,avx512f,avx512vl");
 
 #[cfg(test)]
 mod tests {
@@ -503,6 +535,46 @@ mod tests {
             let ([both, a_end], _) = one.bars.paired_share();
             let others = in_lanes - both - a_end;
             assert!(both > bars.len() / 4 && a_end > bars.len() / 4 && others > 0, "{both} {a_end} {others}");
+        }
+    }
+
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    fn the_avx512_build_of_the_octets_gives_the_avx2_bits() {
+        if SimdLevel::best_available() < SimdLevel::Avx512 {
+            eprintln!("no AVX-512 here: only the AVX2 build of the octets runs");
+            return;
+        }
+        // The two modules are one source compiled with more registers for
+        // one of them; every variant (rigid and compliant, with and without
+        // a tolerance) and unequal masses, as in the test above.
+        let (positions, bars) = crumpled_sheet(40);
+        let weights: Vec<f32> = (0..positions.len()).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
+        let (rigid, compliant) = (([0.0; 3], 1.0), ([0.3, 2.0, 0.7], 1.2));
+        for ((betas, omega), tolerance) in [(rigid, 0.0), (rigid, 0.001), (compliant, 0.0), (compliant, 0.001)] {
+            let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
+            let sweep = Sweep { betas, omega, tolerance };
+            let (mut narrow, mut wide) = (layout.clone(), layout);
+            for pass in 0..3 {
+                let (g2, g5) = (&mut narrow.bars.blocks[0], &mut wide.bars.blocks[0]);
+                // SAFETY: the CPU has AVX-512 F + VL, AVX2 and FMA (checked
+                // above), and each layout's particles are as many as its
+                // colouring indexes (one block holds them all).
+                let (w2, w5) = unsafe {
+                    (
+                        avx2::relax_pass(&mut narrow.particles, &g2.colouring, &mut g2.multipliers, &sweep),
+                        avx512::relax_pass(&mut wide.particles, &g5.colouring, &mut g5.multipliers, &sweep),
+                    )
+                };
+                assert_eq!(w2.to_bits(), w5.to_bits(), "worst excess, pass {pass}, β {betas:?}");
+            }
+            assert_eq!(bits(&narrow), bits(&wide), "β {betas:?}");
+            assert_ne!(
+                bits(&narrow)[..3 * positions.len()],
+                bits(&GenericLayout::new(&positions, &positions, &weights, &bars, None))[..3 * positions.len()],
+                "the passes moved nothing"
+            );
         }
     }
 
