@@ -80,14 +80,9 @@ fn run_writes_the_state_and_the_trace() {
     assert!(csv.contains("\n10,"), "no row for step 10");
 }
 
-/// The fast solver's end state on the seed's scene (its wind) after `steps`
-/// steps at SIMD level `level` (`DRAPE_SIMD`), and the line `drape run`
-/// prints about the level.
-fn state_at_level(dir: &Path, level: &str, steps: u32) -> (Vec<[f64; 3]>, String) {
-    scene_state_at_level(dir, "seed", level, steps)
-}
-
-/// [`state_at_level`] on scene `scene`.
+/// The fast solver's end state on scene `scene` after `steps` steps at SIMD
+/// level `level` (`DRAPE_SIMD`), and the line `drape run` prints about the
+/// level.
 fn scene_state_at_level(dir: &Path, scene: &str, level: &str, steps: u32) -> (Vec<[f64; 3]>, String) {
     let out = dir.join(format!("state-{scene}-{level}-{steps}.json"));
     let o = Command::new(env!("CARGO_BIN_EXE_drape"))
@@ -105,49 +100,46 @@ fn scene_state_at_level(dir: &Path, scene: &str, level: &str, steps: u32) -> (Ve
 #[test]
 fn every_simd_level_gives_the_same_bits() {
     // The kernels are one source compiled for each level: the fast
-    // solver's end state on the seed's scene (its wind, 150 steps) is the
-    // same at every level with FMA, bit for bit (the JSON holds each f32 as
-    // its shortest decimal, read back exactly as f64). DRAPE_SIMD=avx512
-    // on a CPU without it says so and runs the best it has.
+    // solver's end state is the same at every level with FMA, bit for bit
+    // (the JSON holds each f32 as its shortest decimal, read back exactly
+    // as f64), on the seed's scene (a grid: its wind, 150 steps) and on the
+    // tablecloth (no grid, the coloured path's octets, built for AVX2 and,
+    // with more registers, for AVX-512: 60 steps falling on its table,
+    // contact and every bar kind). DRAPE_SIMD=avx512 on a CPU without it
+    // says so and runs the best it has.
     let dir = scratch("simd_levels");
-    let (best, _) = state_at_level(&dir, "", 150);
-    for level in ["avx2", "avx512", "nonsense"] {
-        let (positions, line) = state_at_level(&dir, level, 150);
-        if level == "nonsense" {
-            assert!(line.contains("not a level"), "{line}");
+    for (scene, steps) in [("seed", 150), ("tablecloth", 60)] {
+        let (best, _) = scene_state_at_level(&dir, scene, "", steps);
+        for level in ["avx2", "avx512", "nonsense"] {
+            let (positions, line) = scene_state_at_level(&dir, scene, level, steps);
+            if level == "nonsense" {
+                assert!(line.contains("not a level"), "{line}");
+            }
+            assert!(positions == best, "{scene} at DRAPE_SIMD={level} differs from the default");
         }
-        assert!(positions == best, "DRAPE_SIMD={level} differs from the default");
+        // The portable level fuses the projection's multiply-adds only
+        // where its target has FMA (drape::sim::fast::simd::PORTABLE_FUSED);
+        // there it gives the same bits too.
+        let (portable, line) = scene_state_at_level(&dir, scene, "portable", steps);
+        assert!(line.contains("portable (DRAPE_SIMD=portable)"), "{line}");
+        if drape::sim::fast::simd::PORTABLE_FUSED {
+            assert!(portable == best, "{scene} at the portable level differs from the default");
+            continue;
+        }
+        // Elsewhere it rounds each of them twice. Over one step that moves
+        // no particle by more than 10⁻⁶ m, an ulp of a coordinate near 15 m
+        // (the seed's cloth hangs 14.5 m up; measured on a Zen 4: 1.5 × 10⁻⁸
+        // m on the seed's scene, 2.0 × 10⁻⁸ m on the tablecloth, whose
+        // coordinates are near 1 m). Over many steps the difference grows
+        // like any rounding difference in a moving cloth (1.8 cm after 150
+        // steps of the seed's gusting wind), so the long run is not
+        // compared.
+        let (portable, _) = scene_state_at_level(&dir, scene, "portable", 1);
+        let (fused, _) = scene_state_at_level(&dir, scene, "", 1);
+        let apart = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
+        let worst = portable.iter().zip(&fused).map(|(p, q)| apart(p, q)).fold(0.0, f64::max);
+        assert!(worst <= 1e-6, "{scene}: after one step the portable level is {worst} m from the fused one");
     }
-    // A mesh that is no grid takes the coloured path, which does not fuse:
-    // its octets (eight bars in lanes, built for AVX2 and, with more
-    // registers, for AVX-512) and its bars one at a time (portable) give
-    // the same bits at every level. 60 steps of the tablecloth falling on
-    // its table: contact and every bar kind.
-    let (mesh_best, _) = scene_state_at_level(&dir, "tablecloth", "", 60);
-    for level in ["avx2", "avx512", "portable"] {
-        let (positions, _) = scene_state_at_level(&dir, "tablecloth", level, 60);
-        assert!(positions == mesh_best, "the tablecloth at DRAPE_SIMD={level} differs from the default");
-    }
-    // The portable level fuses the grid's multiply-adds only where its
-    // target has FMA (drape::sim::fast::simd::PORTABLE_FUSED); there it
-    // gives the same bits too.
-    let (portable, line) = state_at_level(&dir, "portable", 150);
-    assert!(line.contains("portable (DRAPE_SIMD=portable)"), "{line}");
-    if drape::sim::fast::simd::PORTABLE_FUSED {
-        assert!(portable == best, "the portable level differs from the default");
-        return;
-    }
-    // Elsewhere it rounds each of them twice. Over one step that moves no
-    // particle by more than 10⁻⁶ m, an ulp of a coordinate near 15 m (the
-    // cloth hangs 14.5 m up; measured on a Zen 4: 1.5 × 10⁻⁸ m). Over 150
-    // steps of the seed's gusting wind the difference grows like any
-    // rounding difference in a flapping cloth (1.8 cm measured), so the
-    // long run is not compared.
-    let (portable, _) = state_at_level(&dir, "portable", 1);
-    let (fused, _) = state_at_level(&dir, "", 1);
-    let apart = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
-    let worst = portable.iter().zip(&fused).map(|(p, q)| apart(p, q)).fold(0.0, f64::max);
-    assert!(worst <= 1e-6, "after one step the portable level is {worst} m from the fused one");
 }
 
 fn path(p: &Path) -> &str {

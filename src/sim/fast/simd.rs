@@ -14,12 +14,13 @@
 //! to the default; [`note`] says so (`drape run` prints it). The kernels are
 //! the same source at every level (the `dispatch!` macro): only the instructions
 //! the compiler may use differ, so every level computes the same bits
-//! (the tests check AVX2 against portable), with one exception: the lane
-//! layout's projection fuses its multiply-adds where the level has FMA
-//! (`dispatch!` with `body::<fused>`, [`PORTABLE_FUSED`]). AVX2 and
-//! AVX-512 then give the same bits; a portable build for a target without
-//! FMA (x86-64's baseline) rounds those multiply-adds twice, and its grids'
-//! last bits differ (a test bounds by how much).
+//! (the tests check AVX2 against portable), with one exception: the bar
+//! projection fuses its multiply-adds where the level has FMA, on the grid
+//! (`dispatch!` with `body::<fused>`) and on the coloured path alike
+//! ([`PORTABLE_FUSED`]). AVX2 and AVX-512 then give the same bits; a
+//! portable build for a target without FMA (x86-64's baseline) rounds
+//! those multiply-adds twice, and its last bits differ (a test bounds by
+//! how much).
 
 use std::sync::OnceLock;
 
@@ -123,8 +124,8 @@ pub fn describe() -> String {
     format!("{} ({why})", level.name())
 }
 
-/// Whether the portable level fuses the lane layout's multiply-adds (the
-/// six moves x ± c d, the sum d·d and ℓ² − (L − μ) ℓ of a grid's bar
+/// Whether the portable level fuses the projection's multiply-adds (the
+/// six moves x ± c d, the sum d·d and ℓ² − (L − μ) ℓ of a bar's
 /// projection, each rounded once as at the AVX2 and AVX-512 levels): where
 /// the target's baseline has a fused multiply-add instruction (aarch64;
 /// x86-64 built with `-C target-feature=+fma`), so `f32::mul_add` is one

@@ -25,6 +25,17 @@
 //! square root. The kernel now divides by ℓ² (W) instead, beside the
 //! square root, and multiplies ([`crate::sim::fast::kernel`]'s module docs).
 //!
+//! A sixth and a seventh (host D, Zen 4; both builds in one process,
+//! alternated window by window, so that the host's noise falls on both):
+//! the projection's multiply-adds fused, as on the grid (the kernel's
+//! module docs), 14–17 % off the tablecloth's and disc-183's step; and
+//! at the AVX-512 level the octets built with AVX-512 F + VL, whose 32
+//! registers keep the started octet out of the stack (`octets!`), ~4 % off
+//! the tablecloth's and 5–10 % off disc-183's. A third of the octet's
+//! instructions are shuffles (the rows' transposes); an extra shuffle or
+//! an extra add an octet costs about the same, half a cycle, so the octet
+//! is bound by its instruction count, not by one kind of instruction.
+//!
 //! Why lanes pay here: one bar's projection is a chain of about 60 cycles
 //! (square root, then division) and some 70 instructions, so the CPU's
 //! reorder window holds fewer than three bars at once; one bar took about
@@ -87,13 +98,19 @@ pub(super) fn relax_pass(
     }
     let _ = (lanes, SimdLevel::Avx2);
     let xpbd = sweep.betas.iter().any(|&b| b > 0.0);
+    // The level's rounding: fused where it has FMA (at AVX2 and above this
+    // path runs only when the lanes are not asked for, in tests, and
+    // `f32::mul_add` gives the fused bits there too).
+    let fused = simd::level() >= SimdLevel::Avx2 || simd::PORTABLE_FUSED;
     let mut worst = f32::NEG_INFINITY;
     let mut relax = |bars: std::ops::Range<usize>| {
         for i in bars {
-            let w = if xpbd {
-                relax_one::<true>(particles, &colouring.bars, i, &mut mu[i], sweep)
-            } else {
-                relax_one::<false>(particles, &colouring.bars, i, &mut mu[i], sweep)
+            let (bars, mu) = (&colouring.bars, &mut mu[i]);
+            let w = match (xpbd, fused) {
+                (true, true) => relax_one::<true, true>(particles, bars, i, mu, sweep),
+                (true, false) => relax_one::<true, false>(particles, bars, i, mu, sweep),
+                (false, true) => relax_one::<false, true>(particles, bars, i, mu, sweep),
+                (false, false) => relax_one::<false, false>(particles, bars, i, mu, sweep),
             };
             worst = worst.max(w);
         }
@@ -111,9 +128,9 @@ pub(super) fn relax_pass(
     worst
 }
 
-/// Projects bar `i` alone.
+/// Projects bar `i` alone, its multiply-adds fused with `FUSED`.
 #[inline(always)]
-fn relax_one<const XPBD: bool>(
+fn relax_one<const XPBD: bool, const FUSED: bool>(
     particles: &mut [Particle],
     bars: &BarColumns,
     i: usize,
@@ -125,7 +142,7 @@ fn relax_one<const XPBD: bool>(
     let (wa, wb) = (a.weight, b.weight);
     let rest = bars.rest[i];
     let beta = sweep.betas[usize::from(bars.kind[i])];
-    let v = relax_pair::<f32, XPBD, false>(&mut a.position, wa, &mut b.position, wb, rest, mu, beta, sweep.omega);
+    let v = relax_pair::<f32, XPBD, FUSED>(&mut a.position, wa, &mut b.position, wb, rest, mu, beta, sweep.omega);
     particles[ia] = a;
     particles[ib] = b;
     if sweep.tolerance > 0.0 { excess(v, wa, wb, sweep.tolerance * rest) } else { f32::NEG_INFINITY }
@@ -261,7 +278,7 @@ macro_rules! octets {
                         next = rest;
                     }
                     for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
-                        worst = worst.max(super::relax_one::<XPBD>(particles, bars, i, mu, sweep));
+                        worst = worst.max(super::relax_one::<XPBD, true>(particles, bars, i, mu, sweep));
                     }
                 }
                 worst
@@ -326,7 +343,7 @@ macro_rules! octets {
                 let (ia, ib) = unsafe { ends(columns, first) };
                 // SAFETY: the caller's promise.
                 let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
-                let (d, square) = bar_square::<Avx, false>(&a, &b);
+                let (d, square) = bar_square::<Avx, true>(&a, &b);
                 Started { first, a, wa, b, wb, d, square }
             }
 
@@ -354,8 +371,7 @@ macro_rules! octets {
                 let mut mu8 =
                     if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
                 let omega = Avx::splat(sweep.omega);
-                let v =
-                    correct_pair::<Avx, XPBD, false>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
+                let v = correct_pair::<Avx, XPBD, true>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
                 // SAFETY: the caller's promise.
                 unsafe {
                     if XPBD {
