@@ -31,10 +31,12 @@
 //! module docs), 14–17 % off the tablecloth's and disc-183's step; and
 //! at the AVX-512 level the octets built with AVX-512 F + VL, whose 32
 //! registers keep the started octet out of the stack (`octets!`), ~4 % off
-//! the tablecloth's and 5–10 % off disc-183's. A third of the octet's
-//! instructions are shuffles (the rows' transposes); an extra shuffle or
-//! an extra add an octet costs about the same, half a cycle, so the octet
-//! is bound by its instruction count, not by one kind of instruction.
+//! the tablecloth's and 5–10 % off disc-183's. About a third of the
+//! octet's instructions are shuffles (the rows' transposes: 32 of some
+//! 100 in an octet paired at both ends, counted in the source); an extra
+//! shuffle or an extra add an octet costs about the same, half a cycle, so
+//! the octet is bound by its instruction count, not by one kind of
+//! instruction.
 //!
 //! Why lanes pay here: one bar's projection is a chain of about 60 cycles
 //! (square root, then division) and some 70 instructions, so the CPU's
@@ -167,8 +169,8 @@ fn relax_one<const XPBD: bool, const FUSED: bool>(
 /// One source, two modules: `avx2` compiled for AVX2 + FMA, `avx512` for
 /// AVX-512 F + VL as well. The second still computes on 256-bit registers
 /// (the same instructions, so the same bits), but has 32 of them where AVX2
-/// has 16: an octet started, its ends, weights, vector and length (twelve
-/// registers), stays in registers across the next octet's start instead of
+/// has 16: an octet started, its ends, weights, vector and squared length
+/// (twelve registers), stays in registers across the next octet's start instead of
 /// going to the stack. Stack references in the pass 1 042 → 630, and on a
 /// Zen 4 the tablecloth's step ~4 % and disc-183's ~5–10 % shorter (both
 /// builds in one process, alternated: `docs/performance.md`).
@@ -512,24 +514,38 @@ mod tests {
         positions.chain(layout.bars.blocks[0].multipliers.iter().map(|m| m.to_bits())).collect()
     }
 
+    /// Unequal masses for `n` particles: weights 1, ½, ⅓ and 0 (fixed) in
+    /// turn.
+    fn unequal_weights(n: usize) -> Vec<f32> {
+        (0..n).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect()
+    }
+
+    /// The four variants the sweep compiles: rigid bars, and compliant ones
+    /// of three different β over-relaxed, each with and without a
+    /// tolerance.
+    fn variants() -> [Sweep; 4] {
+        let (rigid, compliant) = (([0.0; 3], 1.0), ([0.3, 2.0, 0.7], 1.2));
+        [(rigid, 0.0), (rigid, 0.001), (compliant, 0.0), (compliant, 0.001)].map(|((betas, omega), tolerance)| Sweep {
+            betas,
+            omega,
+            tolerance,
+        })
+    }
+
     #[test]
     fn lanes_give_the_bits_of_one_bar_at_a_time() {
         if simd::level() < SimdLevel::Avx2 {
             eprintln!("no AVX2 here (or DRAPE_SIMD): the lanes are not used, nothing to compare");
             return;
         }
-        // Unequal masses (1, ½, ⅓, fixed); rigid bars and compliant ones of
-        // three different β over-relaxed, each with and without a
-        // tolerance (the four variants the sweep compiles): the lanes take
-        // weights and β per bar, and the excess.
+        // Unequal masses and every variant the sweep compiles: the lanes
+        // take weights and β per bar, and the excess.
         let (positions, bars) = crumpled_sheet(40);
-        let weights: Vec<f32> = (0..positions.len()).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
-        let (rigid, compliant) = (([0.0; 3], 1.0), ([0.3, 2.0, 0.7], 1.2));
-        let cases = [(rigid, 0.0), (rigid, 0.001), (compliant, 0.0), (compliant, 0.001)];
-        for ((betas, omega), tolerance) in cases {
+        let weights = unequal_weights(positions.len());
+        for sweep in variants() {
+            let betas = sweep.betas;
             let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
             assert_eq!(layout.bars.blocks.len(), 1, "a small sheet is one block");
-            let sweep = Sweep { betas, omega, tolerance };
             let (mut one, mut lanes) = (layout.clone(), layout);
             for pass in 0..3 {
                 let (g1, g8) = (&mut one.bars.blocks[0], &mut lanes.bars.blocks[0]);
@@ -563,14 +579,14 @@ mod tests {
             return;
         }
         // The two modules are one source compiled with more registers for
-        // one of them; every variant (rigid and compliant, with and without
-        // a tolerance) and unequal masses, as in the test above.
+        // one of them; every variant and unequal masses, as in the test
+        // above.
         let (positions, bars) = crumpled_sheet(40);
-        let weights: Vec<f32> = (0..positions.len()).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
-        let (rigid, compliant) = (([0.0; 3], 1.0), ([0.3, 2.0, 0.7], 1.2));
-        for ((betas, omega), tolerance) in [(rigid, 0.0), (rigid, 0.001), (compliant, 0.0), (compliant, 0.001)] {
+        let weights = unequal_weights(positions.len());
+        for sweep in variants() {
+            let betas = sweep.betas;
             let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
-            let sweep = Sweep { betas, omega, tolerance };
+            let before = bits(&layout);
             let (mut narrow, mut wide) = (layout.clone(), layout);
             for pass in 0..3 {
                 let (g2, g5) = (&mut narrow.bars.blocks[0], &mut wide.bars.blocks[0]);
@@ -586,11 +602,7 @@ mod tests {
                 assert_eq!(w2.to_bits(), w5.to_bits(), "worst excess, pass {pass}, β {betas:?}");
             }
             assert_eq!(bits(&narrow), bits(&wide), "β {betas:?}");
-            assert_ne!(
-                bits(&narrow)[..3 * positions.len()],
-                bits(&GenericLayout::new(&positions, &positions, &weights, &bars, None))[..3 * positions.len()],
-                "the passes moved nothing"
-            );
+            assert_ne!(bits(&narrow)[..3 * positions.len()], before[..3 * positions.len()], "the passes moved nothing");
         }
     }
 
@@ -622,7 +634,7 @@ mod tests {
             let rest_length = positions[a as usize].distance(positions[b as usize]) / 1.1;
             bars.push(crate::sim::mesh::Bar { a, b, rest_length, kind: crate::sim::BarKind::Bend });
         }
-        let weights: Vec<f32> = (0..n).map(|i| [1.0, 0.5, 1.0 / 3.0, 0.0][i % 4]).collect();
+        let weights = unequal_weights(n);
         let weights: Vec<f32> = weights
             .iter()
             .enumerate()
