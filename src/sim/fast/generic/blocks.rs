@@ -19,7 +19,11 @@
 //! A pass relaxes every block (in parallel on the rayon pool: blocks share
 //! no particle), then the seams after even blocks (in parallel: seam k
 //! touches blocks k and k + 1 only), then those after odd blocks, then the
-//! last group on one thread. The bars between blocks had been one group
+//! last group on one thread: three rounds, each ended by a barrier. A
+//! step with no tolerance runs its passes instead as a graph of tasks
+//! ([`super::graph`]): each block's next pass starts as soon as its own two
+//! seams are done, in the same order for every particle, so with the same
+//! bits. The bars between blocks had been one group
 //! relaxed on one thread while the other idled (2.3 % of disc-183's bars,
 //! 35–65 µs a pass on two threads of host D); in seams, disc-183's step on
 //! two threads went from 9.9–15.4 ms to 9.2–12.3 ms (five alternated
@@ -41,6 +45,7 @@ use rayon::prelude::*;
 
 use super::Particle;
 use super::colouring::Colouring;
+use super::graph::{self, Schedule, Task};
 use super::sweep::{Sweep, relax_pass};
 use crate::sim::fast::THREAD_SHARES;
 use crate::sim::mesh::Bar;
@@ -288,6 +293,61 @@ impl BlockedBars {
     }
 }
 
+/// The groups and the particles of a blocked layout, as the tasks of a
+/// [`Schedule`] reach them from several threads.
+struct Nodes {
+    /// Node n's group: block n, or seam n − blocks.
+    groups: Vec<*mut Group>,
+    particles: *mut Particle,
+    len: usize,
+}
+
+// SAFETY: `Nodes` is shared only by `BlockedBars::relax_passes`'s tasks,
+// which `graph::run` never runs at once when they share a group or a
+// particle (the schedule orders every such pair: `graph`'s module docs and
+// its test `tasks_that_share_a_particle_are_always_ordered`), while the
+// groups and particles stay mutably borrowed by `relax_passes`.
+#[allow(unsafe_code)]
+unsafe impl Sync for Nodes {}
+
+impl BlockedBars {
+    /// `passes` passes with no tolerance: as a graph of tasks on the pool's
+    /// threads ([`super::graph`]) where it has more than one and the layout
+    /// two blocks or more and no far bars; else pass by pass
+    /// ([`BlockedBars::relax_pass`]). The same bits either way. Returns
+    /// whether the passes ran as a graph.
+    #[allow(unsafe_code)]
+    pub(super) fn relax_passes(&mut self, particles: &mut [Particle], sweep: &Sweep, passes: usize) -> bool {
+        let (threads, blocks) = (rayon::current_num_threads(), self.blocks.len());
+        if threads == 1 || blocks < 2 || !self.far.multipliers.is_empty() {
+            for _ in 0..passes {
+                self.relax_pass(particles, sweep);
+            }
+            return false;
+        }
+        let [even, odd] = &mut self.seams;
+        let pointers = |groups: &mut Vec<Group>| groups.iter_mut().map(|g| g as *mut Group).collect::<Vec<_>>();
+        let (even, odd) = (pointers(even), pointers(odd));
+        let mut groups = pointers(&mut self.blocks);
+        groups.extend((0..blocks - 1).map(|s| [&even, &odd][s % 2][s / 2]));
+        let nodes = &Nodes { groups, particles: particles.as_mut_ptr(), len: particles.len() };
+        let relax = |t: Task| {
+            // SAFETY: the pointers come from `&mut` borrows held for this
+            // call; no other task that shares this group or a particle of
+            // its run runs now (`Nodes`), and the run lies within the
+            // particles (asserted).
+            let pointer = nodes.groups[t.node];
+            let group = unsafe { &mut *pointer };
+            let run = group.run();
+            assert!(run.end <= nodes.len, "a group's particles {run:?} past the layout's {}", nodes.len);
+            let particles = unsafe { std::slice::from_raw_parts_mut(nodes.particles.add(run.start), run.len()) };
+            group.relax(particles, sweep);
+        };
+        graph::run(Schedule::new(blocks, passes), threads, &relax);
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -338,13 +398,19 @@ mod tests {
         assert!(loose.windows(2).all(|w| (w[1] - w[0]).abs_diff(count / 4) <= 2 * n as usize), "{loose:?}");
     }
 
-    #[test]
-    fn a_pass_is_its_groups_one_after_another_in_the_documented_order() {
-        // A 130 × 130 sheet (16 900 particles: four blocks, seams 0 and 2
-        // after even blocks, seam 1 after an odd one) of structural,
-        // diagonal and bend bars, stretched 3 %, with four bars from the
-        // first row to the last (blocks 0 and 3: far bars). Unequal masses
-        // and compliant bars, so every group's multipliers move too.
+    /// The positions' and multipliers' bits.
+    fn bits(b: &BlockedBars, x: &[Particle]) -> Vec<u32> {
+        let positions = x.iter().flat_map(|p| p.position.map(f32::to_bits));
+        positions.chain(b.multipliers().map(f32::to_bits)).collect()
+    }
+
+    /// A 130 × 130 sheet (16 900 particles: four blocks, seams 0 and 2
+    /// after even blocks, seam 1 after an odd one) of structural, diagonal
+    /// and bend bars, stretched 3 %, with (if `far`) four bars from the
+    /// first row to the last (blocks 0 and 3: far bars). Unequal masses
+    /// and compliant bars, so every group's multipliers move too. Its bars,
+    /// particles and particle count.
+    fn stretched_sheet(far: bool) -> (Vec<Bar>, Vec<Particle>, usize) {
         let n = 130u32;
         let at = |c: u32, r: u32| r * n + c;
         let mut bars = Vec::new();
@@ -365,8 +431,10 @@ mod tests {
                 }
             }
         }
-        for c in [0, 40, 80, 120] {
-            bar(at(c, 0), at(c + 1, n - 1), BarKind::Structural, 11.0);
+        if far {
+            for c in [0, 40, 80, 120] {
+                bar(at(c, 0), at(c + 1, n - 1), BarKind::Structural, 11.0);
+            }
         }
         let count = (n * n) as usize;
         let particles: Vec<Particle> = (0..count as u32)
@@ -376,6 +444,12 @@ mod tests {
                 Particle { position: [c * 0.103, r * 0.103, 0.01 * (c * 0.7 + r).sin()], weight }
             })
             .collect();
+        (bars, particles, count)
+    }
+
+    #[test]
+    fn a_pass_is_its_groups_one_after_another_in_the_documented_order() {
+        let (bars, particles, count) = stretched_sheet(true);
         let blocked = BlockedBars::new(&bars, count, &vec![false; count]);
         assert_eq!((blocked.blocks.len(), blocked.seams[0].len(), blocked.seams[1].len()), (4, 2, 1));
         assert_eq!(blocked.far_bars(), 4);
@@ -393,15 +467,38 @@ mod tests {
             let (first, last) = (group.first, group.first + group.colouring.particles);
             group.relax(&mut x_alone[first..last], &sweep);
         }
-        let bits = |b: &BlockedBars, x: &[Particle]| {
-            let positions = x.iter().flat_map(|p| p.position.map(f32::to_bits));
-            positions.chain(b.multipliers().map(f32::to_bits)).collect::<Vec<u32>>()
-        };
         assert_eq!(bits(&rounds, &x_rounds), bits(&alone, &x_alone));
         // Every group moved something: its multipliers are not all zero.
         let [even, odd] = &rounds.seams;
         for group in rounds.blocks.iter().chain(even).chain(odd).chain([&rounds.far]) {
             assert!(group.multipliers.iter().any(|&m| m != 0.0), "a group starting at {} did not move", group.first);
         }
+    }
+
+    #[test]
+    fn the_graph_of_tasks_gives_the_rounds_bits_on_any_thread_count() {
+        // The sheet without far bars: four blocks, three seams. Five passes
+        // as a graph of tasks on two and on three threads against five
+        // passes of rounds on one: the same positions and multipliers, bit
+        // for bit, and the graph was used (not the rounds again).
+        let (bars, particles, count) = stretched_sheet(false);
+        let blocked = BlockedBars::new(&bars, count, &vec![false; count]);
+        assert_eq!((blocked.blocks.len(), blocked.far_bars()), (4, 0));
+        let sweep = Sweep { betas: [0.3, 2.0, 0.7], omega: 1.2, tolerance: 0.0 };
+        let (mut rounds, mut x_rounds) = (blocked.clone(), particles.clone());
+        for _ in 0..5 {
+            rounds.relax_pass(&mut x_rounds, &sweep);
+        }
+        for threads in [2, 3] {
+            let (mut graph, mut x_graph) = (blocked.clone(), particles.clone());
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
+            assert!(pool.install(|| graph.relax_passes(&mut x_graph, &sweep, 5)), "{threads} threads: rounds used");
+            assert!(bits(&graph, &x_graph) == bits(&rounds, &x_rounds), "{threads} threads: other bits");
+        }
+        // One thread keeps the rounds; and the passes moved every group.
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a pool");
+        assert!(!one.install(|| blocked.clone().relax_passes(&mut particles.clone(), &sweep, 1)));
+        let [even, odd] = &rounds.seams;
+        assert!(rounds.blocks.iter().chain(even).chain(odd).all(|g| g.multipliers.iter().any(|&m| m != 0.0)));
     }
 }

@@ -18,6 +18,7 @@
 
 mod blocks;
 mod colouring;
+mod graph;
 mod order;
 mod pairs;
 mod sweep;
@@ -270,11 +271,14 @@ impl Solver for GenericLayout {
             self.weights_changed = false;
         }
         let sweep = Sweep { betas: s.betas(), omega: s.over_relaxation, tolerance: s.tolerance };
+        if s.tolerance <= 0.0 {
+            let _ = self.bars.relax_passes(&mut self.particles, &sweep, s.relaxations as usize);
+            return s.relaxations;
+        }
         let mut sweeps = 0;
         for _ in 0..s.relaxations {
             sweeps += 1;
-            let worst = self.bars.relax_pass(&mut self.particles, &sweep);
-            if s.tolerance > 0.0 && worst <= 0.0 {
+            if self.bars.relax_pass(&mut self.particles, &sweep) <= 0.0 {
                 break;
             }
         }

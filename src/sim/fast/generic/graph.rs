@@ -1,0 +1,319 @@
+//! A blocked layout's passes as a graph of tasks, so that threads wait on
+//! their neighbours' seams, not on every group of a round.
+//!
+//! [`super::blocks`] relaxes a pass in three rounds (the blocks, the seams
+//! after even blocks, those after odd ones), each ended by a barrier: 60
+//! barriers in a step of 20 passes, at each of which a thread that finished
+//! its share waits for the slowest, and a block's next pass waits for every
+//! seam of the pass, not only its own two. Here each group's pass is a task
+//! (block k or seam k, pass p) that runs as soon as the tasks it must follow
+//! are done:
+//!
+//! - block k, pass p: seams k − 1 and k of pass p − 1 (the only seams that
+//!   touch block k's particles);
+//! - seam k, pass p: blocks k and k + 1 of pass p, and where k is odd the
+//!   even seams k − 1 and k + 1 of pass p (they touch blocks k and k + 1).
+//!
+//! Every particle then sees its groups in the rounds' order (its block,
+//! its even seam, its odd seam, its block again), so the graph computes the
+//! rounds' bits on any thread count. Two tasks that share a particle are
+//! always joined by a path of these edges (a test checks every pair), so two
+//! tasks that run at once share none, which is what lets
+//! [`run`] hand each its particles through a raw pointer.
+//!
+//! Ready tasks are taken lowest pass first, then seams (short, and the next
+//! pass waits on them) before blocks, then a thread's own blocks (the first
+//! `blocks / threads`, and so on) before another's, so each block tends to
+//! stay on one core.
+//!
+//! Measured on disc-183 (101 017 particles, 8 blocks) on the two vCPUs of
+//! host D (a Zen 4), both schedules in one process, alternated in windows
+//! of two steps: the rounds' mean step 1.01–1.18 times the graph's over
+//! ten runs (the most when the host was busiest, 1.01 in its quietest:
+//! 7.54 ms against 7.59 ms). Taking seams or a thread's own blocks first
+//! or not moved the mean by less than the noise (±4 %).
+//!
+//! The rounds stay for a pass that must end with every group done: when a
+//! tolerance is set (the step stops after the first pass that meets it) and
+//! when bars join blocks further apart than neighbours (they are relaxed
+//! after every seam, on one thread).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, PoisonError};
+
+/// One group's pass: block `node`, or seam `node − blocks` (between blocks
+/// `node − blocks` and `node − blocks + 1`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Task {
+    pub(super) pass: usize,
+    pub(super) node: usize,
+}
+
+/// The tasks of `passes` passes over `blocks` blocks (≥ 2), and which are
+/// done, ready or waiting.
+#[derive(Clone, Debug)]
+pub(super) struct Schedule {
+    blocks: usize,
+    passes: usize,
+    /// Per task (pass-major), how many of the tasks it follows are not done.
+    waiting: Vec<u8>,
+    ready: Vec<Task>,
+    /// Tasks not done.
+    left: usize,
+}
+
+impl Schedule {
+    pub(super) fn new(blocks: usize, passes: usize) -> Self {
+        assert!(blocks >= 2, "a schedule needs two blocks and the seam between them");
+        let mut schedule = Schedule { blocks, passes, waiting: Vec::new(), ready: Vec::new(), left: 0 };
+        let tasks: Vec<Task> =
+            (0..passes).flat_map(|pass| (0..schedule.nodes()).map(move |node| Task { pass, node })).collect();
+        schedule.waiting = tasks.iter().map(|&t| schedule.follows(t).count() as u8).collect();
+        schedule.ready = tasks.into_iter().filter(|&t| schedule.waiting[schedule.index(t)] == 0).collect();
+        schedule.left = schedule.waiting.len();
+        schedule
+    }
+
+    /// Blocks, then seams.
+    fn nodes(&self) -> usize {
+        2 * self.blocks - 1
+    }
+
+    fn index(&self, t: Task) -> usize {
+        t.pass * self.nodes() + t.node
+    }
+
+    /// The seam task's seam, or `None` for a block.
+    fn seam(&self, t: Task) -> Option<usize> {
+        t.node.checked_sub(self.blocks)
+    }
+
+    /// The tasks `t` must follow (the module's two rules).
+    pub(super) fn follows(&self, t: Task) -> impl Iterator<Item = Task> + use<> {
+        let (blocks, seams) = (self.blocks, self.blocks - 1);
+        let seam = |pass: usize, k: usize| Task { pass, node: blocks + k };
+        let block = |k: usize| Task { pass: t.pass, node: k };
+        let mut follows = Vec::with_capacity(4);
+        match self.seam(t) {
+            None if t.pass > 0 => {
+                let k = t.node;
+                follows.extend(k.checked_sub(1).map(|k| seam(t.pass - 1, k)));
+                follows.extend((k < seams).then(|| seam(t.pass - 1, k)));
+            }
+            None => {}
+            Some(k) => {
+                follows.extend([block(k), block(k + 1)]);
+                if k % 2 == 1 {
+                    follows.push(seam(t.pass, k - 1));
+                    follows.extend((k + 1 < seams).then(|| seam(t.pass, k + 1)));
+                }
+            }
+        }
+        follows.into_iter()
+    }
+
+    /// The tasks that follow `t`: those at its pass or the next, near its
+    /// blocks, whose [`Schedule::follows`] holds it.
+    fn followers(&self, t: Task) -> impl Iterator<Item = Task> + '_ {
+        let k = self.seam(t).unwrap_or(t.node);
+        let near = k.saturating_sub(1)..(k + 3).min(self.blocks);
+        let passes = t.pass..(t.pass + 2).min(self.passes);
+        passes
+            .flat_map(move |pass| {
+                let blocks = near.clone().map(move |node| Task { pass, node });
+                let seams =
+                    near.clone().filter(|&s| s + 1 < self.blocks).map(move |s| Task { pass, node: self.blocks + s });
+                blocks.chain(seams)
+            })
+            .filter(move |&f| self.follows(f).any(|p| p == t))
+    }
+
+    /// Marks `t` done: the tasks that waited on it last become ready.
+    pub(super) fn complete(&mut self, t: Task) {
+        self.left -= 1;
+        let followers: Vec<Task> = self.followers(t).collect();
+        for f in followers {
+            let i = self.index(f);
+            self.waiting[i] -= 1;
+            if self.waiting[i] == 0 {
+                self.ready.push(f);
+            }
+        }
+    }
+
+    /// Every task done.
+    pub(super) fn finished(&self) -> bool {
+        self.left == 0
+    }
+
+    /// Takes the ready task thread `me` of `threads` should run next (the
+    /// module's order), if any.
+    pub(super) fn take(&mut self, me: usize, threads: usize) -> Option<Task> {
+        let home = |t: &Task| self.seam(*t).unwrap_or(t.node) * threads / self.blocks;
+        let key = |t: &Task| (t.pass, self.seam(*t).is_none(), home(t) != me, t.node);
+        let (at, _) = self.ready.iter().enumerate().min_by_key(|(_, t)| key(t))?;
+        Some(self.ready.swap_remove(at))
+    }
+}
+
+/// Runs every task of `schedule` with `run`, on `threads` workers of the
+/// rayon pool (the calling thread one of them), each taking the next ready
+/// task as it finishes one ([`Schedule::take`]). `run` is called for two
+/// tasks at once only when neither follows the other. A panic in `run`
+/// stops the other workers and is raised again here.
+pub(super) fn run(schedule: Schedule, threads: usize, run: &(dyn Fn(Task) + Sync)) {
+    let threads = threads.max(1);
+    let shared = Mutex::new(schedule);
+    let failed = AtomicBool::new(false);
+    let worker = |me: usize| {
+        /// Tells the other workers to stop if this one unwinds.
+        struct Alarm<'a>(&'a AtomicBool);
+        impl Drop for Alarm<'_> {
+            fn drop(&mut self) {
+                if std::thread::panicking() {
+                    self.0.store(true, Ordering::Relaxed);
+                }
+            }
+        }
+        let _alarm = Alarm(&failed);
+        let mut done = None;
+        loop {
+            let next = {
+                let mut schedule = shared.lock().unwrap_or_else(PoisonError::into_inner);
+                if let Some(t) = done.take() {
+                    schedule.complete(t);
+                }
+                if schedule.finished() || failed.load(Ordering::Relaxed) {
+                    return;
+                }
+                schedule.take(me, threads)
+            };
+            match next {
+                Some(t) => {
+                    run(t);
+                    done = Some(t);
+                }
+                // A task in progress on another worker will make one ready:
+                // a seam takes a few µs.
+                None => (0..64).for_each(|_| std::hint::spin_loop()),
+            }
+        }
+    };
+    rayon::scope(|scope| {
+        for me in 1..threads {
+            scope.spawn(move |_| worker(me));
+        }
+        worker(0);
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blocks a task's particles lie in: its block, or its seam's two.
+    fn touches(s: &Schedule, t: Task) -> Vec<usize> {
+        match s.seam(t) {
+            None => vec![t.node],
+            Some(k) => vec![k, k + 1],
+        }
+    }
+
+    /// The pairs of tasks over 3 passes that touch a common block while
+    /// neither reaches the other along `follows` (two workers could run
+    /// them at once on the same particles).
+    fn unordered_sharing(s: &Schedule, follows: &dyn Fn(Task) -> Vec<Task>) -> Vec<(Task, Task)> {
+        let tasks: Vec<Task> = (0..3).flat_map(|pass| (0..s.nodes()).map(move |node| Task { pass, node })).collect();
+        // reach[i][j]: task j follows task i, directly or not (a search
+        // from each task along the edges).
+        let n = tasks.len();
+        let mut after = vec![Vec::new(); n];
+        for &t in &tasks {
+            for p in follows(t) {
+                after[s.index(p)].push(s.index(t));
+            }
+        }
+        let mut reach = vec![vec![false; n]; n];
+        for (i, reach) in reach.iter_mut().enumerate() {
+            let mut stack = vec![i];
+            while let Some(h) = stack.pop() {
+                for &j in &after[h] {
+                    if !reach[j] {
+                        reach[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        let mut pairs = Vec::new();
+        for (i, &a) in tasks.iter().enumerate() {
+            for (j, &b) in tasks.iter().enumerate().skip(i + 1) {
+                if !reach[i][j] && !reach[j][i] && touches(s, a).iter().any(|k| touches(s, b).contains(k)) {
+                    pairs.push((a, b));
+                }
+            }
+        }
+        pairs
+    }
+
+    #[test]
+    fn tasks_that_share_a_particle_are_always_ordered() {
+        // Every pair of tasks over 3 passes of 2 to 6 blocks.
+        for blocks in 2..=6 {
+            let s = Schedule::new(blocks, 3);
+            let pairs = unordered_sharing(&s, &|t| s.follows(t).collect());
+            assert!(pairs.is_empty(), "{blocks} blocks: unordered tasks sharing a block: {pairs:?}");
+        }
+        // The check can fail: without the odd seams' edges to the even
+        // seams of their pass, seams 0 and 1 of pass 0 (both in block 1)
+        // are unordered.
+        let s = Schedule::new(4, 3);
+        let blocks_only = |t: Task| s.follows(t).filter(|p| s.seam(*p).is_none() || p.pass < t.pass).collect();
+        let pairs = unordered_sharing(&s, &blocks_only);
+        assert!(pairs.contains(&(Task { pass: 0, node: 4 }, Task { pass: 0, node: 5 })), "{pairs:?}");
+    }
+
+    #[test]
+    fn every_task_runs_once_after_those_it_follows_in_any_order_of_taking() {
+        // Taken by thread 0, by the last of three threads, and in an order
+        // shuffled by a fixed LCG: each task once, each after its
+        // prerequisites, every one of the 5 passes × 9 nodes.
+        for policy in 0..3 {
+            let mut s = Schedule::new(5, 5);
+            let mut done = [false; 5 * 9];
+            let mut lcg = 12_345u64;
+            loop {
+                let t = match policy {
+                    0 => s.take(0, 1),
+                    1 => s.take(2, 3),
+                    _ if s.ready.is_empty() => None,
+                    _ => {
+                        lcg = lcg.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                        Some(s.ready.swap_remove((lcg >> 33) as usize % s.ready.len()))
+                    }
+                };
+                let Some(t) = t else { break };
+                assert!(s.follows(t).all(|p| done[s.index(p)]), "{t:?} ran before a task it follows");
+                assert!(!done[s.index(t)], "{t:?} ran twice");
+                done[s.index(t)] = true;
+                s.complete(t);
+            }
+            assert!(s.finished() && done.iter().all(|&d| d), "policy {policy}: not every task ran");
+        }
+    }
+
+    #[test]
+    fn a_panicking_task_stops_every_worker_and_is_raised() {
+        // On two threads, the task of seam 1 in pass 2 panics: the tasks
+        // after it never become ready, so a worker that kept waiting for
+        // them would hang; instead the call returns by raising the panic.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("a pool");
+        let bad = Task { pass: 2, node: 4 + 1 };
+        let result = pool.install(|| {
+            std::panic::catch_unwind(|| {
+                run(Schedule::new(4, 5), 2, &|t| assert_ne!(t, bad, "the task meant to fail"));
+            })
+        });
+        assert!(result.is_err());
+    }
+}
