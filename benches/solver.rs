@@ -87,7 +87,9 @@ fn scale(c: &mut Criterion) {
 /// all threads: the seed's scene above a ground 100 m below that it never
 /// reaches (the broad phase's cost alone), and a 256 × 256 cloth of 2 cm
 /// (5.1 m) at 20 relaxations draped over a 1.5 m sphere and lying on the
-/// ground. "without" is the same state with the colliders removed.
+/// ground; and disc-183 (101 017 particles, no grid: the coloured path),
+/// its pinned middle third over a 1 m ball, its hem lying on the ground 2 m
+/// below. "without" is the same state with the colliders removed.
 fn contact(c: &mut Criterion) {
     let mut group = c.benchmark_group("contact");
     group.sample_size(10);
@@ -127,14 +129,24 @@ fn contact(c: &mut Criterion) {
     };
     let sphere =
         Collider::fixed(Shape::Sphere { radius: 0.75 }, Pose { translation: Vec3::Y * 0.75, ..Pose::default() });
-    let mut draped = Simulation::new(mesh, params).expect("valid scene").with_colliders(vec![ground(0.0), sphere]);
+    let mut draped =
+        Simulation::new(mesh, params.clone()).expect("valid scene").with_colliders(vec![ground(0.0), sphere]);
     // 1.5 s: the cloth has landed on the ball and its hem on the ground.
     draped.advance(150).expect("no blow-up");
-    for (name, with) in [("256-draped/without", false), ("256-draped/with", true)] {
+    let floor = ground(-2.0);
+    let ball = Collider::fixed(Shape::Sphere { radius: 1.0 }, Pose { translation: Vec3::Y * -1.05, ..Pose::default() });
+    let mut disc = Simulation::with_solver(ring_disc(183, 0.02), params, SolverKind::Fast)
+        .expect("valid scene")
+        .with_colliders(vec![floor, ball]);
+    // 1.5 s: the hem has reached the ground and lies on it.
+    disc.advance(150).expect("no blow-up");
+    let cases = [("256-draped", &draped), ("disc-183-draped", &disc)];
+    for ((scene, draped), with) in cases.into_iter().flat_map(|c| [(c, false), (c, true)]) {
         let mut sim = draped.clone();
         if !with {
             sim.set_colliders(vec![]);
         }
+        let name = format!("{scene}/{}", if with { "with" } else { "without" });
         group.throughput(Throughput::Elements(sim.projections_per_step()));
         group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
     }

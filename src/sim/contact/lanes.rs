@@ -1,4 +1,5 @@
-//! The collide phase eight particles at a time, for the grid solver's lanes.
+//! The collide phase eight particles at a time, for the grid solver's
+//! tiles and the coloured layout's chunks.
 //!
 //! - **Filter** (`may_touch_lanes`): which of eight particles a collider may
 //!   move: the broad phase's box test lane by lane, and for a sphere that
@@ -91,12 +92,27 @@ impl ContactStep<'_> {
         })
     }
 
-    /// [`Self::resolve`] for the lanes set in `lanes` of eight particles
-    /// moving from `x0` to `x`: the same bits, lane by lane (module docs).
+    /// [`Self::resolve`] against every collider for the lanes set in
+    /// `lanes` of eight particles moving from `x0` to `x`, all inside the
+    /// box `lo..hi` whose colliders are `near` ([`Self::near`]): the same
+    /// bits, lane by lane (module docs). A lane that a push takes out of
+    /// the box (where a collider off it might touch, as a larger box than
+    /// the particle's own touches more) is resolved again from its start
+    /// against every collider.
     #[inline(always)]
-    pub(crate) fn resolve_lanes(&self, near: &[usize], lanes: u8, x0: &Point<F32x8>, x: &mut Point<F32x8>) {
+    pub(crate) fn resolve_lanes(
+        &self,
+        near: &[usize],
+        (lo, hi): (Vec3, Vec3),
+        lanes: u8,
+        x0: &Point<F32x8>,
+        x: &mut Point<F32x8>,
+    ) {
+        let start = *x;
+        let (lo, hi) = (lo.to_array(), hi.to_array());
+        let mut escaped = 0u8;
         for &k in near {
-            let boxed = self.boxed_lanes(k, lanes, x0, x);
+            let boxed = self.boxed_lanes(k, lanes & !escaped, x0, x);
             if boxed == 0 {
                 continue;
             }
@@ -106,6 +122,24 @@ impl ContactStep<'_> {
             };
             for l in (0..LANES).filter(|l| one_by_one & (1 << l) != 0) {
                 let out = self.resolve_one(k, lane(x0, l), lane(x, l));
+                for (axis, value) in x.iter_mut().zip(out.to_array()) {
+                    axis.0[l] = value;
+                }
+            }
+            let mut outside = 0u8;
+            for l in 0..LANES {
+                let mut inside = true;
+                for i in 0..3 {
+                    inside &= x[i].0[l] >= lo[i] && x[i].0[l] <= hi[i];
+                }
+                outside |= u8::from(!inside) << l;
+            }
+            escaped |= outside & boxed;
+        }
+        if escaped != 0 {
+            let all = self.all();
+            for l in (0..LANES).filter(|l| escaped & (1 << l) != 0) {
+                let out = self.resolve(&all, lane(x0, l), lane(&start, l));
                 for (axis, value) in x.iter_mut().zip(out.to_array()) {
                     axis.0[l] = value;
                 }
@@ -293,7 +327,7 @@ mod tests {
             let left = step.resolve_still(0, still, boxed, &x0, &mut ball);
             in_lanes += (boxed & !left).count_ones();
             fallback += left.count_ones();
-            step.resolve_lanes(&all, lanes, &x0, &mut x);
+            step.resolve_lanes(&all, (Vec3::NEG_INFINITY, Vec3::INFINITY), lanes, &x0, &mut x);
             if on_plane {
                 plane_moved += (0..LANES).filter(|&l| lane(&x, l) != pairs[l].1).count();
             }
@@ -317,5 +351,39 @@ mod tests {
         assert!(in_lanes > 500 && fallback > 50, "{in_lanes} ball lanes in lanes, {fallback} one by one");
         assert!(pushed > 250 && sticking > 50 && sliding > 50, "{pushed} pushed: {sticking} stuck, {sliding} slid");
         assert!(plane_moved > 500, "{plane_moved} particles moved by the tilted ground");
+    }
+
+    #[test]
+    fn a_lane_pushed_out_of_its_box_meets_the_colliders_off_the_box() {
+        // Eight particles at rest at y = 0, x = 0 … 0.07, over a ball of
+        // radius 5 whose top is at y = 0.02, under a ceiling at y = 0.035
+        // (normal −y); thickness r = 0.01. Their box (y = 0) is 0.035 from
+        // the ceiling, more than r: only the ball is near it. The ball
+        // pushes each out along its normal to 0.03 − x²/(2·5) or so, 0.005
+        // or less from the ceiling, which pushes it back to y = 0.025.
+        // Resolved against the box's colliders alone, they would stay near
+        // 0.03: the lanes must go back to every collider.
+        let colliders = vec![
+            Collider::fixed(Shape::Sphere { radius: 5.0 }, Pose { translation: Vec3::Y * -4.98, ..Pose::default() }),
+            Collider::fixed(
+                Shape::Plane { normal: -Vec3::Y },
+                Pose { translation: Vec3::Y * 0.035, ..Pose::default() },
+            ),
+        ];
+        let step = ContactStep::new(&colliders, 0.01, 0.3, 0.0, 0.01);
+        let start: [Vec3; LANES] = std::array::from_fn(|l| Vec3::new(0.01 * l as f32, 0.0, 0.0));
+        let (lo, hi) = (start[0], start[LANES - 1]);
+        let near = step.near(lo, hi);
+        assert_eq!(near, vec![0]);
+        let x0: Point<F32x8> = std::array::from_fn(|i| F32x8(std::array::from_fn(|l| start[l][i])));
+        let mut x = x0;
+        step.resolve_lanes(&near, (lo, hi), u8::MAX, &x0, &mut x);
+        let all = step.all();
+        for (l, &p) in start.iter().enumerate() {
+            let expected = step.resolve(&all, p, p);
+            assert_eq!(lane(&x, l).to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits), "lane {l}");
+            assert!((expected.y - 0.025).abs() < 1e-6, "lane {l} at {expected}");
+            assert!(step.resolve(&near, p, p).y > 0.0295, "lane {l}: the ball alone leaves it near 0.03");
+        }
     }
 }

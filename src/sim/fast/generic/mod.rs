@@ -17,6 +17,7 @@
 //! shuffle.
 
 mod blocks;
+mod collide;
 mod colouring;
 mod graph;
 mod order;
@@ -119,12 +120,18 @@ impl GenericLayout {
     /// position, in chunks, on the thread pool when the passes use it
     /// (each particle alone: the same bits on any thread count).
     fn each_particle(&mut self, f: impl Fn(&mut Particle, &mut [f32; 3], &mut [f32; 3]) + Sync) {
-        type Chunk<'a> = ((&'a mut [Particle], &'a mut [[f32; 3]]), &'a mut [[f32; 3]]);
-        let chunk = |((p, d), q): Chunk| {
+        self.each_chunk(|p, d, q| {
             for ((p, d), q) in p.iter_mut().zip(d).zip(q) {
                 f(p, d, q);
             }
-        };
+        });
+    }
+
+    /// `f` on every chunk of [`CHUNK`] particles, their displacements d and
+    /// predicted positions, on the thread pool when the passes use it.
+    fn each_chunk(&mut self, f: impl Fn(&mut [Particle], &mut [[f32; 3]], &mut [[f32; 3]]) + Sync) {
+        type Chunk<'a> = ((&'a mut [Particle], &'a mut [[f32; 3]]), &'a mut [[f32; 3]]);
+        let chunk = |((p, d), q): Chunk| f(p, d, q);
         if self.uses_pool() {
             let (p, d) = (self.particles.par_chunks_mut(CHUNK), self.displacement.par_chunks_mut(CHUNK));
             p.zip(d).zip(self.predicted.par_chunks_mut(CHUNK)).for_each(chunk);
@@ -241,15 +248,25 @@ impl Solver for GenericLayout {
         self.each_particle(|p, d, q| *q = integrate(&mut p.position, d, p.weight, keep, accel, gravity));
     }
 
+    /// In chunks of the layout's order, on the thread pool when the passes
+    /// use it (each particle alone: the same bits).
     fn push(&mut self, displacement: &[Vec3]) {
-        for k in 0..self.particles.len() {
-            let delta = displacement[self.scene(k)];
-            let p = &mut self.particles[k];
-            if p.weight > 0.0 {
-                for k in 0..3 {
-                    p.position[k] += p.weight * delta[k];
+        let renumbering = self.renumbering.as_ref();
+        let chunk = |(c, particles): (usize, &mut [Particle])| {
+            for (j, p) in particles.iter_mut().enumerate() {
+                let k = c * CHUNK + j;
+                let delta = displacement[renumbering.map_or(k, |r| r.scene[k] as usize)];
+                if p.weight > 0.0 {
+                    for k in 0..3 {
+                        p.position[k] += p.weight * delta[k];
+                    }
                 }
             }
+        };
+        if self.uses_pool() {
+            self.particles.par_chunks_mut(CHUNK).enumerate().for_each(chunk);
+        } else {
+            self.particles.chunks_mut(CHUNK).enumerate().for_each(chunk);
         }
     }
 
@@ -285,15 +302,11 @@ impl Solver for GenericLayout {
         sweeps
     }
 
-    /// Particles in scene order; each started the substep at x_pred − d.
+    /// Chunk by chunk, on the thread pool when the passes use it, eight
+    /// particles at a time in lanes ([`collide`]): the bits of every
+    /// particle against every collider, on any thread count.
     fn collide(&mut self, contact: &ContactStep) {
-        let all = contact.all();
-        for ((p, d), q) in self.particles.iter_mut().zip(&self.displacement).zip(&self.predicted) {
-            if p.weight > 0.0 {
-                let x0 = Vec3::from_array(*q) - Vec3::from_array(*d);
-                p.position = contact.resolve(&all, x0, Vec3::from_array(p.position)).to_array();
-            }
-        }
+        self.each_chunk(|particles, d, q| collide::collide_chunk(particles, d, q, contact));
     }
 
     /// Gathers positions, start positions (x_pred − d) and weights, runs

@@ -2,6 +2,7 @@
 //! one thread or two, with still octets skipped or projected.
 
 use super::*;
+use crate::sim::collider::{Collider, Pose, Shape};
 use crate::sim::mesh::ClothMesh;
 
 /// A substep of 10 ms with a little wind and gravity, `relaxations`
@@ -61,15 +62,16 @@ fn shuffled_sheet(n: u32) -> (Vec<Vec3>, Vec<Bar>) {
 #[test]
 fn particle_phases_give_the_same_bits_on_one_thread_and_on_two() {
     // 130 × 130 = 16 900 particles: two blocks, so on two threads the
-    // phases that go particle by particle (integrate, settle, read, the
-    // finiteness check) run in chunks on the pool; renumbered, so read
-    // and the check go through the slots.
+    // phases that go particle by particle (integrate, push, settle, read,
+    // the finiteness check) run in chunks on the pool; renumbered, so
+    // push, read and the check go through the slots.
     let (positions, bars) = shuffled_sheet(130);
     let n = positions.len();
     let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { [1.0, 0.5][i % 2] }).collect();
     let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
     let velocity: Vec<Vec3> = (0..n).map(|i| Vec3::new(0.0, 0.0, (i % 7) as f32 * 0.01)).collect();
     let substep = |first| substep(first, 3, [0.0; 3], None);
+    let push: Vec<Vec3> = (0..n).map(|i| Vec3::new((i % 11) as f32 * 1e-4, 0.0, 0.0)).collect();
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
         let mut l = layout.clone();
@@ -77,6 +79,7 @@ fn particle_phases_give_the_same_bits_on_one_thread_and_on_two() {
             assert_eq!(l.uses_pool(), threads > 1);
             for step in 0..3 {
                 l.integrate(&substep((step == 0).then_some((&velocity[..], Vec3::ZERO))));
+                l.push(&push);
                 l.relax(&substep(None));
                 l.settle();
             }
@@ -264,4 +267,54 @@ fn octets_between_fixed_particles_are_skipped_with_the_bits_of_projecting_them()
     skipping.read(&mut x, &mut x_prev);
     let moved = (0..n).filter(|&i| weights[i] > 0.0 && x[i] != positions[i]).count();
     assert!(moved > n / 2, "{moved} of {n} moved");
+}
+
+#[test]
+fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
+    // The 130 × 130 sheet laid flat at y = 0 (12.9 m square about the
+    // origin), at rest (x0 = x), every 97th particle fixed. A ball of
+    // radius 5 with its top at y = 0.02 reaches the particles within about
+    // 0.45 m of the middle, and a ceiling at y = 0.035 (normal −y) is off
+    // every chunk's box (all at y = 0: 0.035 is farther than the thickness
+    // r = 0.01). The ball pushes the middle particles out to its surface
+    // plus r, up to y = 0.03, where the ceiling is 0.005 away, closer than
+    // r: it pushes them back to 0.035 − 0.01 = 0.025. A chunk that tried
+    // only the colliders near its box would leave them at up to 0.03: the
+    // fallback to every collider is what puts them at 0.025.
+    let (sheet, bars) = shuffled_sheet(130);
+    let positions: Vec<Vec3> = sheet.iter().map(|p| Vec3::new(p.x - 6.45, 0.0, -p.y - 6.45)).collect();
+    let n = positions.len();
+    let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { 1.0 }).collect();
+    let mut layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
+    for (q, p) in layout.predicted.iter_mut().zip(&layout.particles) {
+        *q = p.position;
+    }
+    let colliders = [
+        Collider::fixed(Shape::Sphere { radius: 5.0 }, Pose { translation: Vec3::Y * -4.98, ..Pose::default() }),
+        Collider::fixed(Shape::Plane { normal: -Vec3::Y }, Pose { translation: Vec3::Y * 0.035, ..Pose::default() }),
+    ];
+    let contact = ContactStep::new(&colliders, 0.01, 0.3, 0.0, 0.01);
+    assert_eq!(contact.near(Vec3::new(-7.0, 0.0, -7.0), Vec3::new(7.0, 0.0, 7.0)), vec![0]);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
+        let mut l = layout.clone();
+        pool.install(|| {
+            assert_eq!(l.uses_pool(), threads > 1);
+            l.collide(&contact);
+            let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            l.read(&mut x, &mut x_prev);
+            x
+        })
+    };
+    let all = contact.all();
+    let expected: Vec<Vec3> = (0..n)
+        .map(|i| if weights[i] > 0.0 { contact.resolve(&all, positions[i], positions[i]) } else { positions[i] })
+        .collect();
+    let bits = |x: &[Vec3]| x.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
+    for threads in [1, 2] {
+        assert!(bits(&run(threads)) == bits(&expected), "{threads} threads: not every collider's bits");
+    }
+    let top = expected.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
+    let under_ceiling = expected.iter().filter(|p| p.y > 0.0249).count();
+    assert!((top - 0.025).abs() < 1e-6 && under_ceiling > 3, "top {top}, {under_ceiling} under the ceiling");
 }

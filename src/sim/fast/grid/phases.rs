@@ -296,7 +296,7 @@ fn collide_tile_body(tile: &mut Tile, contact: &ContactStep) {
             continue;
         }
         let moving = (0..LANES).fold(0u8, |m, l| m | (u8::from(w.0[l] > 0.0) << l));
-        contact.resolve_lanes(&near, touching & moving, &x0, x);
+        contact.resolve_lanes(&near, (lo, hi), touching & moving, &x0, x);
     }
 }
 
