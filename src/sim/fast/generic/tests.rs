@@ -318,3 +318,41 @@ fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
     let under_ceiling = expected.iter().filter(|p| p.y > 0.0249).count();
     assert!((top - 0.025).abs() < 1e-6 && under_ceiling > 3, "top {top}, {under_ceiling} under the ceiling");
 }
+
+#[test]
+fn self_collide_runs_the_phase_in_scene_order_on_one_thread_and_on_two() {
+    // The shuffled 130 × 130 sheet (renumbered: two blocks) squeezed to
+    // 0.3 of its width, at rest (x0 = x): particles two columns apart are
+    // 0.06 m from each other, 0.2 m in the rest shape, so the phase pushes
+    // them apart towards r = 0.08. The layout gathers its rows into scene
+    // order (in chunks on the pool with two threads), runs the phase and
+    // writes the positions back: the bits of the phase run on the scene's
+    // arrays directly.
+    let (rest, bars) = shuffled_sheet(130);
+    let squeezed: Vec<Vec3> = rest.iter().map(|p| Vec3::new(p.x * 0.3, p.y, p.z)).collect();
+    let n = rest.len();
+    let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { 1.0 }).collect();
+    let mut layout = GenericLayout::new(&squeezed, &squeezed, &weights, &bars, None);
+    assert!(layout.renumbering.is_some());
+    for (q, p) in layout.predicted.iter_mut().zip(&layout.particles) {
+        *q = p.position;
+    }
+    let step = SelfContactStep { thickness: 0.08, friction: 0.2, parallel: true };
+    let mut expected = squeezed.clone();
+    SelfContact::new(&rest).apply(&mut expected, &squeezed, &weights, &step);
+    let moved = expected.iter().zip(&squeezed).filter(|(a, b)| a != b).count();
+    assert!(moved > n / 2, "the phase moved {moved} of {n} particles");
+    let bits = |x: &[Vec3]| x.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
+        let x = pool.install(|| {
+            let mut l = layout.clone();
+            assert_eq!(l.uses_pool(), threads > 1);
+            l.self_collide(&mut SelfContact::new(&rest), &step);
+            let (mut x, mut x_prev) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            l.read(&mut x, &mut x_prev);
+            x
+        });
+        assert!(bits(&x) == bits(&expected), "{threads} threads: not the phase's bits");
+    }
+}
