@@ -133,13 +133,7 @@ fn contact(c: &mut Criterion) {
         Simulation::new(mesh, params.clone()).expect("valid scene").with_colliders(vec![ground(0.0), sphere]);
     // 1.5 s: the cloth has landed on the ball and its hem on the ground.
     draped.advance(150).expect("no blow-up");
-    let floor = ground(-2.0);
-    let ball = Collider::fixed(Shape::Sphere { radius: 1.0 }, Pose { translation: Vec3::Y * -1.05, ..Pose::default() });
-    let mut disc = Simulation::with_solver(ring_disc(183, 0.02), params, SolverKind::Fast)
-        .expect("valid scene")
-        .with_colliders(vec![floor, ball]);
-    // 1.5 s: the hem has reached the ground and lies on it.
-    disc.advance(150).expect("no blow-up");
+    let disc = draped_disc(params);
     let cases = [("256-draped", &draped), ("disc-183-draped", &disc)];
     for ((scene, draped), with) in cases.into_iter().flat_map(|c| [(c, false), (c, true)]) {
         let mut sim = draped.clone();
@@ -151,6 +145,20 @@ fn contact(c: &mut Criterion) {
         group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
     }
     group.finish();
+}
+
+/// disc-183 ([`ring_disc`]: 101 017 particles, no grid, the coloured
+/// path) under `params`, its pinned middle third over a 1 m ball, after
+/// 1.5 s: its hem has reached the ground 2 m below and lies on it.
+fn draped_disc(params: SolverParams) -> Simulation {
+    let floor =
+        Collider::fixed(Shape::Plane { normal: Vec3::Y }, Pose { translation: Vec3::Y * -2.0, ..Pose::default() });
+    let ball = Collider::fixed(Shape::Sphere { radius: 1.0 }, Pose { translation: Vec3::Y * -1.05, ..Pose::default() });
+    let mut disc = Simulation::with_solver(ring_disc(183, 0.02), params, SolverKind::Fast)
+        .expect("valid scene")
+        .with_colliders(vec![floor, ball]);
+    disc.advance(150).expect("no blow-up");
+    disc
 }
 
 /// The cost of moving air as a ratio to the same step without it: a
@@ -195,7 +203,8 @@ fn air(c: &mut Criterion) {
 
 /// The cost of self-collision as a ratio to the same step without it: a
 /// 256 × 256 cloth of 2 cm lying folded in two on the ground (r = 1.5 cm,
-/// 20 relaxations, all threads), and the `pile` scene after it has piled up.
+/// 20 relaxations, all threads), the `pile` scene after it has piled up,
+/// and disc-183 draped over a ball onto the ground (r = 1 cm; no grid).
 fn self_collision(c: &mut Criterion) {
     let mut group = c.benchmark_group("self-collision");
     group.sample_size(10);
@@ -241,6 +250,14 @@ fn self_collision(c: &mut Criterion) {
         let mut sim = piled.clone();
         sim.set_params(SolverParams { self_collision: on, ..scene.params.clone() }).expect("valid parameters");
         let name = if on { "pile/with" } else { "pile/without" };
+        group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
+    }
+    let disc_params = SolverParams { thickness: 0.01, ..params };
+    let disc = draped_disc(SolverParams { self_collision: true, ..disc_params.clone() });
+    for on in [false, true] {
+        let mut sim = disc.clone();
+        sim.set_params(SolverParams { self_collision: on, ..disc_params.clone() }).expect("valid parameters");
+        let name = if on { "disc-183-draped/with" } else { "disc-183-draped/without" };
         group.bench_function(name, |b| b.iter(|| sim.step().expect("no blow-up")));
     }
     group.finish();
