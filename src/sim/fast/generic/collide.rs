@@ -15,9 +15,10 @@
 //! them), so the phase gives the same bits on any thread count and at
 //! every SIMD level (the lanes' operations are those of one particle).
 //!
-//! One particle at a time against every collider, this phase was 8–10 %
-//! of disc-183's step draped over a ball and the ground (one thread, the
-//! box test out of line at every particle and collider).
+//! One particle at a time against every collider, on one thread, the
+//! phase took 5.1 ms of a step of disc-183 draped over a ball onto the
+//! ground; in chunks in lanes it takes 4.0 ms on one thread and 2.3 ms on
+//! two (host D, both in one process, wall clock on a busy host).
 
 use glam::Vec3;
 
