@@ -343,7 +343,10 @@ impl BlockedBars {
             let particles = unsafe { std::slice::from_raw_parts_mut(nodes.particles.add(run.start), run.len()) };
             group.relax(particles, sweep);
         };
-        graph::run(Schedule::new(blocks, passes), threads, &relax);
+        // At most one worker a block: tasks that may run at once touch
+        // different blocks (the graph orders any two that share one), and
+        // a worker with nothing to take spins.
+        graph::run(Schedule::new(blocks, passes), threads.min(blocks), &relax);
         true
     }
 }
