@@ -69,15 +69,7 @@ fn collide_chunk_body(particles: &mut [Particle], d: &[[f32; 3]], q: &[[f32; 3]]
             }
             moving |= u8::from(p.weight > 0.0) << l;
         }
-        let mut touching = 0u8;
-        for &k in &near {
-            touching |= contact.may_touch_lanes(k, &x0, &x);
-        }
-        let lanes = touching & moving;
-        if lanes == 0 {
-            continue;
-        }
-        contact.resolve_lanes(&near, (lo, hi), lanes, &x0, &mut x);
+        let lanes = contact.collide_lanes(&near, (lo, hi), || moving, &x0, &mut x);
         for (l, row) in rows.iter_mut().enumerate().filter(|(l, _)| lanes & (1 << l) != 0) {
             row.position = lane(&x, l).to_array();
         }

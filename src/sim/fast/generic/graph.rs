@@ -93,23 +93,24 @@ impl Schedule {
         let (blocks, seams) = (self.blocks, self.blocks - 1);
         let seam = |pass: usize, k: usize| Task { pass, node: blocks + k };
         let block = |k: usize| Task { pass: t.pass, node: k };
-        let mut follows = Vec::with_capacity(4);
+        // At most four, kept on the stack: this runs under the lock.
+        let mut follows = [None; 4];
         match self.seam(t) {
             None if t.pass > 0 => {
                 let k = t.node;
-                follows.extend(k.checked_sub(1).map(|k| seam(t.pass - 1, k)));
-                follows.extend((k < seams).then(|| seam(t.pass - 1, k)));
+                follows[0] = k.checked_sub(1).map(|k| seam(t.pass - 1, k));
+                follows[1] = (k < seams).then(|| seam(t.pass - 1, k));
             }
             None => {}
             Some(k) => {
-                follows.extend([block(k), block(k + 1)]);
+                (follows[0], follows[1]) = (Some(block(k)), Some(block(k + 1)));
                 if k % 2 == 1 {
-                    follows.push(seam(t.pass, k - 1));
-                    follows.extend((k + 1 < seams).then(|| seam(t.pass, k + 1)));
+                    follows[2] = Some(seam(t.pass, k - 1));
+                    follows[3] = (k + 1 < seams).then(|| seam(t.pass, k + 1));
                 }
             }
         }
-        follows.into_iter()
+        follows.into_iter().flatten()
     }
 
     /// The tasks that follow `t`: those at its pass or the next, near its
@@ -131,8 +132,12 @@ impl Schedule {
     /// Marks `t` done: the tasks that waited on it last become ready.
     pub(super) fn complete(&mut self, t: Task) {
         self.left -= 1;
-        let followers: Vec<Task> = self.followers(t).collect();
-        for f in followers {
+        // At most four (an even seam's: two blocks, two odd seams).
+        let mut followers = [None; 4];
+        for (slot, f) in followers.iter_mut().zip(self.followers(t)) {
+            *slot = Some(f);
+        }
+        for f in followers.into_iter().flatten() {
             let i = self.index(f);
             self.waiting[i] -= 1;
             if self.waiting[i] == 0 {

@@ -141,6 +141,23 @@ impl GenericLayout {
         }
     }
 
+    /// `f` on every particle's row and its scene index, in chunks of the
+    /// layout's order, on the thread pool when the passes use it.
+    fn each_row(&mut self, f: impl Fn(&mut Particle, usize) + Sync) {
+        let renumbering = self.renumbering.as_ref();
+        let chunk = |(c, particles): (usize, &mut [Particle])| {
+            for (j, p) in particles.iter_mut().enumerate() {
+                let k = c * CHUNK + j;
+                f(p, renumbering.map_or(k, |r| r.scene[k] as usize));
+            }
+        };
+        if self.uses_pool() {
+            self.particles.par_chunks_mut(CHUNK).enumerate().for_each(chunk);
+        } else {
+            self.particles.chunks_mut(CHUNK).enumerate().for_each(chunk);
+        }
+    }
+
     /// The layout of a mesh: its particles in [`order::dimer_order`] (over
     /// the scene's order, or a breadth-first one where the scene's would
     /// put more than 1 bar in 20 between blocks), its bars coloured.
@@ -248,26 +265,16 @@ impl Solver for GenericLayout {
         self.each_particle(|p, d, q| *q = integrate(&mut p.position, d, p.weight, keep, accel, gravity));
     }
 
-    /// In chunks of the layout's order, on the thread pool when the passes
-    /// use it (each particle alone: the same bits).
+    /// Each particle alone, [`GenericLayout::each_row`]: the same bits.
     fn push(&mut self, displacement: &[Vec3]) {
-        let renumbering = self.renumbering.as_ref();
-        let chunk = |(c, particles): (usize, &mut [Particle])| {
-            for (j, p) in particles.iter_mut().enumerate() {
-                let k = c * CHUNK + j;
-                let delta = displacement[renumbering.map_or(k, |r| r.scene[k] as usize)];
-                if p.weight > 0.0 {
-                    for k in 0..3 {
-                        p.position[k] += p.weight * delta[k];
-                    }
+        self.each_row(|p, i| {
+            if p.weight > 0.0 {
+                let delta = displacement[i];
+                for k in 0..3 {
+                    p.position[k] += p.weight * delta[k];
                 }
             }
-        };
-        if self.uses_pool() {
-            self.particles.par_chunks_mut(CHUNK).enumerate().for_each(chunk);
-        } else {
-            self.particles.chunks_mut(CHUNK).enumerate().for_each(chunk);
-        }
+        });
     }
 
     fn relax(&mut self, s: &Substep) -> u32 {
@@ -330,17 +337,7 @@ impl Solver for GenericLayout {
             (x[i], x0[i], w[i]) = (Vec3::from_array(p.position), Vec3::from_array(*q) - Vec3::from_array(*d), p.weight);
         }
         phase.apply(&mut x, &x0, &w, step);
-        let scatter = |(c, particles): (usize, &mut [Particle])| {
-            for (j, p) in particles.iter_mut().enumerate() {
-                let k = c * CHUNK + j;
-                p.position = x[renumbering.map_or(k, |r| r.scene[k] as usize)].to_array();
-            }
-        };
-        if self.uses_pool() {
-            self.particles.par_chunks_mut(CHUNK).enumerate().for_each(scatter);
-        } else {
-            self.particles.chunks_mut(CHUNK).enumerate().for_each(scatter);
-        }
+        self.each_row(|p, i| p.position = x[i].to_array());
         (phase.x, phase.x0, phase.w) = (x, x0, w);
     }
 
