@@ -57,12 +57,13 @@ pub(super) struct Cells {
     start: Vec<u32>,
     /// Slot → particle.
     pub(super) order: Vec<u32>,
+    /// Particle → slot: the inverse of `order`.
+    pub(super) slot: Vec<u32>,
     /// Each slot's position, one array per axis, padded with `LANES`
     /// slots so a lane load past a bucket's end stays in bounds.
     axes: [Vec<f32>; 3],
-    /// Scratch: each particle's bucket, and each bucket's next free slot.
+    /// Scratch: each particle's bucket.
     buckets: Vec<u32>,
-    fill: Vec<u32>,
 }
 
 /// The cell a point is in, for cells of side 1/`inverse_side`.
@@ -131,18 +132,72 @@ pub(super) fn gather<T: Copy + Default + Send>(
     }
 }
 
+/// [`gather`] into three row tables at once: `out[t][k] = pick(order[k])[t]`,
+/// each particle read once.
+pub(super) fn gather_rows(
+    out: [&mut Vec<[f32; 4]>; 3],
+    order: &[u32],
+    parallel: bool,
+    pick: impl Fn(usize) -> [[f32; 4]; 3] + Sync + Send,
+) {
+    let [a, b, c] = out;
+    for table in [&mut *a, &mut *b, &mut *c] {
+        table.resize(order.len(), [0.0; 4]);
+    }
+    type Chunk<'a> = (((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), &'a mut [[f32; 4]]), &'a [u32]);
+    let fill = |(((a, b), c), order): Chunk| {
+        for (((a, b), c), &i) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()).zip(order) {
+            [*a, *b, *c] = pick(i as usize);
+        }
+    };
+    if parallel {
+        let tables = a.par_chunks_mut(PER_TASK).zip(b.par_chunks_mut(PER_TASK)).zip(c.par_chunks_mut(PER_TASK));
+        tables.zip(order.par_chunks(PER_TASK)).for_each(fill);
+    } else {
+        fill((((a, b), c), order));
+    }
+}
+
 impl Cells {
     /// Sorts the particles at `x` into cells of side `side` (metres, > 0).
     /// With `parallel`, the per-particle passes run on the thread pool (the
     /// counting sort itself does not; the result is the same).
     pub(super) fn build(&mut self, x: &[Vec3], side: f32, parallel: bool) {
-        // 2^b ≥ 2n buckets, and at least two blocks' worth.
-        let bits = (2 * x.len().max(1)).next_power_of_two().trailing_zeros().max(3 * BLOCK_BITS + 1);
-        self.build_with(x, side, bits, parallel);
+        self.build_with(x, side, Self::bits_for(x.len()), parallel);
     }
 
     /// [`Self::build`] into 2^`bits` buckets (`bits` in 7..=32).
     fn build_with(&mut self, x: &[Vec3], side: f32, bits: u32, parallel: bool) {
+        self.sort_with(x, side, bits, parallel);
+        // Each slot's position, each particle read once.
+        let n = x.len();
+        let [xs, ys, zs] = &mut self.axes;
+        for values in [&mut *xs, &mut *ys, &mut *zs] {
+            values.resize(n + LANES, f32::INFINITY);
+            values[n..].fill(f32::INFINITY);
+        }
+        type Chunk<'a> = (((&'a mut [f32], &'a mut [f32]), &'a mut [f32]), &'a [u32]);
+        let fill = |(((xs, ys), zs), order): Chunk| {
+            for (((px, py), pz), &i) in xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()).zip(order) {
+                [*px, *py, *pz] = x[i as usize].to_array();
+            }
+        };
+        let (xs, ys, zs) = (&mut xs[..n], &mut ys[..n], &mut zs[..n]);
+        if parallel {
+            let axes = xs.par_chunks_mut(PER_TASK).zip(ys.par_chunks_mut(PER_TASK)).zip(zs.par_chunks_mut(PER_TASK));
+            axes.zip(self.order.par_chunks(PER_TASK)).for_each(fill);
+        } else {
+            fill((((xs, ys), zs), &self.order));
+        }
+    }
+
+    /// b for n particles: 2^b ≥ 2n buckets, and at least two blocks' worth.
+    fn bits_for(n: usize) -> u32 {
+        (2 * n.max(1)).next_power_of_two().trailing_zeros().max(3 * BLOCK_BITS + 1)
+    }
+
+    /// The counting sort of [`Self::build`]: `order`, `slot` and `start`.
+    fn sort_with(&mut self, x: &[Vec3], side: f32, bits: u32, parallel: bool) {
         let n = x.len();
         self.inverse_side = 1.0 / side;
         self.bits = bits;
@@ -155,27 +210,28 @@ impl Cells {
         } else {
             self.buckets.chunks_mut(PER_TASK).zip(x.chunks(PER_TASK)).for_each(keys);
         }
+        // Bucket h's count at h + 2, summed so that h + 1 holds where h
+        // starts; filling each bucket moves its h + 1 to where it ends,
+        // which is where h + 1 starts: then h holds where h starts.
         self.start.clear();
-        self.start.resize(size + 1, 0);
+        self.start.resize(size + 2, 0);
         for &h in &self.buckets {
-            self.start[h as usize + 1] += 1;
+            self.start[h as usize + 2] += 1;
         }
-        for h in 0..size {
+        for h in 1..size {
             self.start[h + 1] += self.start[h];
         }
         // Stable in the particle index: each bucket filled in index order.
-        self.fill.clone_from(&self.start);
         self.order.clear();
         self.order.resize(n, 0);
-        for (i, &h) in self.buckets.iter().enumerate() {
-            let next = &mut self.fill[h as usize];
+        self.slot.resize(n, 0);
+        for ((i, &h), slot) in self.buckets.iter().enumerate().zip(&mut self.slot) {
+            let next = &mut self.start[h as usize + 1];
             self.order[*next as usize] = i as u32;
+            *slot = *next;
             *next += 1;
         }
-        for (axis, values) in self.axes.iter_mut().enumerate() {
-            gather(values, &self.order, parallel, |i| x[i][axis]);
-            values.resize(n + LANES, f32::INFINITY);
-        }
+        self.start.pop();
     }
 
     /// The position copied into `slot`.

@@ -29,7 +29,8 @@
 //! plain search (a ball of radius r + s, cells of side 2(r + s)) and adds a
 //! test per candidate each substep; it pays when it serves several
 //! substeps. So before a search the phase measures how far each particle
-//! has travelled per substep since the last search, and takes the skin
+//! has travelled per substep since the last search (reading the rows in
+//! order beside a copy of where they were at the search), and takes the skin
 //! s = [`SKIN`]·r only when no more than 1 in [`MOVERS`] particles would
 //! become movers within [`LIFETIME`] substeps at that pace; otherwise s = 0,
 //! the plain search of radius r, whose pairs serve only their own substep.
@@ -48,7 +49,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::cells::{Cells, PER_TASK};
+use super::cells::PER_TASK;
 
 /// s / r, the skin of a list that is kept (dimensionless). 0.25: the
 /// search's cells grow from 2r to 2.5r, and a particle becomes a mover
@@ -117,44 +118,62 @@ pub(super) struct PairList {
     /// slots, in order.
     pub(super) mover: Vec<bool>,
     pub(super) movers: Vec<u32>,
+    /// Each row's position at the search.
+    at: Vec<Vec3>,
 }
 
 impl PairList {
-    /// Whether the table of the last search serves thickness `r` and `n`
-    /// particles (so [`Self::plan`] can be asked).
-    pub(super) fn serves(&self, cells: &Cells, r: f32, n: usize) -> bool {
-        self.served > 0 && self.thickness == r && cells.order.len() == n
+    /// Whether the last search serves thickness `r` and `n` particles (so [`Self::plan`] can be asked).
+    pub(super) fn serves(&self, r: f32, n: usize) -> bool {
+        self.served > 0 && self.thickness == r && self.at.len() == n
     }
 
-    /// What to do with `point`, the present positions in the table's slot
-    /// order (`[x, y, z, w]`): keep the list (and mark the movers), or
-    /// search with the skin the pace since the last search affords.
-    pub(super) fn plan(&mut self, point: &[[f32; 4]], cells: &Cells, parallel: bool) -> Plan {
-        let n = point.len();
+    /// What to do with the particles at `x` (row order; row i sits in slot
+    /// `slot[i]` of the search's table): keep the list (and mark the
+    /// movers), or search with the skin the pace since the last search
+    /// affords. Read in the rows' order, beside where they were at the
+    /// search.
+    pub(super) fn plan(&mut self, x: &[Vec3], slot: &[u32], parallel: bool) -> Plan {
+        let n = x.len();
         let cap = n / MOVERS;
         // The travel that makes a mover, for skin s.
         let reach = |s: f32| MARGIN * 0.5 * s;
-        // Squared travel since the search.
-        let travel2 = |k: usize| {
-            let p = point[k];
-            Vec3::new(p[0], p[1], p[2]).distance_squared(cells.position(k))
-        };
+        let at = &self.at;
+        // Squared travel since the search, past `limit2`.
+        let beyond_since = |i: usize, limit2: f32| beyond(x[i].distance_squared(at[i]), limit2);
         if self.skin > 0.0 {
             let reach2 = reach(self.skin) * reach(self.skin);
-            self.mover.resize(n, false);
-            let mark = |(c, mover): (usize, &mut [bool])| {
-                for (l, m) in mover.iter_mut().enumerate() {
-                    *m = beyond(travel2(c * PER_TASK + l), reach2);
+            // Each chunk's movers' slots, listed while there are few.
+            let movers = |c: usize| {
+                let (mut count, mut slots) = (0, Vec::new());
+                let first = c * PER_TASK;
+                for (i, &k) in slot.iter().enumerate().take(n.min(first + PER_TASK)).skip(first) {
+                    if beyond_since(i, reach2) {
+                        count += 1;
+                        if count <= cap {
+                            slots.push(k);
+                        }
+                    }
                 }
+                (count, slots)
             };
-            if parallel {
-                self.mover.par_chunks_mut(PER_TASK).enumerate().for_each(mark);
+            let chunks = n.div_ceil(PER_TASK);
+            let found: Vec<(usize, Vec<u32>)> = if parallel {
+                (0..chunks).into_par_iter().map(movers).collect()
             } else {
-                self.mover.chunks_mut(PER_TASK).enumerate().for_each(mark);
-            }
-            self.movers.clear();
-            self.movers.extend((0..n as u32).filter(|&k| self.mover[k as usize]));
-            if self.movers.len() <= cap {
+                (0..chunks).map(movers).collect()
+            };
+            if found.iter().map(|(count, _)| count).sum::<usize>() <= cap {
+                self.movers.clear();
+                for (_, slots) in found {
+                    self.movers.extend(slots);
+                }
+                self.movers.sort_unstable();
+                self.mover.clear();
+                self.mover.resize(n, false);
+                for &k in &self.movers {
+                    self.mover[k as usize] = true;
+                }
                 self.served += 1;
                 return Plan::Keep;
             }
@@ -163,16 +182,18 @@ impl PairList {
         // pace since the search (NaN travel, a non-finite position, counts).
         let skin = SKIN * self.thickness;
         let soon = reach(skin) / LIFETIME * self.served as f32;
-        let count = |k: usize| usize::from(beyond(travel2(k), soon * soon));
+        let count = |i: usize| usize::from(beyond_since(i, soon * soon));
         let movers = if parallel { (0..n).into_par_iter().map(count).sum() } else { (0..n).map(count).sum::<usize>() };
         Plan::Search { skin: if movers <= cap { skin } else { 0.0 } }
     }
 
-    /// Records a search with thickness `r` and skin `skin`, whose pairs are
-    /// `chunks` (kept only when `skin` > 0).
-    pub(super) fn searched(&mut self, r: f32, skin: f32, chunks: Vec<Candidates>) {
+    /// Records a search with thickness `r` and skin `skin` at positions `x`
+    /// (row order), whose pairs are `chunks` (kept only when `skin` > 0).
+    pub(super) fn searched(&mut self, r: f32, skin: f32, chunks: Vec<Candidates>, x: &[Vec3]) {
         (self.thickness, self.skin, self.served) = (r, skin, 1);
         self.chunks = if skin > 0.0 { chunks } else { Vec::new() };
+        self.at.clear();
+        self.at.extend_from_slice(x);
         self.mover.clear();
         self.movers.clear();
     }
@@ -185,6 +206,7 @@ fn beyond(d2: f32, limit2: f32) -> bool {
 
 #[cfg(test)]
 mod tests {
+    use super::super::cells::Cells;
     use super::*;
 
     #[test]
@@ -197,20 +219,21 @@ mod tests {
         let mut cells = Cells::default();
         cells.build(&x, 2.0 * (r + SKIN * r), false);
         let mut list = PairList::default();
-        assert!(!list.serves(&cells, r, 64), "nothing searched yet");
-        list.searched(r, 0.01, Vec::new());
-        assert!(list.serves(&cells, r, 64) && !list.serves(&cells, 0.03, 64) && !list.serves(&cells, r, 65));
-        let slot_of = |i: u32| cells.order.iter().position(|&p| p == i).expect("every particle has a slot") as u32;
-        let rows = |moved: &[(u32, f32)]| -> Vec<[f32; 4]> {
+        assert!(!list.serves(r, 64), "nothing searched yet");
+        list.searched(r, 0.01, Vec::new(), &x);
+        assert!(list.serves(r, 64) && !list.serves(0.03, 64) && !list.serves(r, 65));
+        let slot_of = |i: u32| cells.slot[i as usize];
+        // The positions, some particles moved along y.
+        let rows = |moved: &[(u32, f32)]| -> Vec<Vec3> {
             let mut p = x.clone();
             for &(i, d) in moved {
                 p[i as usize].y += d;
             }
-            cells.order.iter().map(|&i| super::super::row(p[i as usize], 1.0)).collect()
+            p
         };
-        assert_eq!(list.plan(&rows(&[(5, 0.0049)]), &cells, false), Plan::Keep);
+        assert_eq!(list.plan(&rows(&[(5, 0.0049)]), &cells.slot, false), Plan::Keep);
         assert!(list.movers.is_empty(), "0.0049 is within reach");
-        assert_eq!(list.plan(&rows(&[(5, 0.0051), (9, -0.006)]), &cells, false), Plan::Keep);
+        assert_eq!(list.plan(&rows(&[(5, 0.0051), (9, -0.006)]), &cells.slot, false), Plan::Keep);
         let mut movers = vec![slot_of(5), slot_of(9)];
         movers.sort();
         assert_eq!(list.movers, movers, "the movers' slots, in order");
@@ -219,19 +242,19 @@ mod tests {
         // pace (0.0051 / 3 a substep) particles 5 and 9 and 12 would be
         // movers within 3 substeps: more than 2, so the plain search.
         let three = [(5, 0.0051), (9, -0.006), (12, 0.0051)];
-        assert_eq!(list.plan(&rows(&three), &cells, false), Plan::Search { skin: 0.0 });
+        assert_eq!(list.plan(&rows(&three), &cells.slot, false), Plan::Search { skin: 0.0 });
         // The same travel over 4 substeps is 0.001275 a substep, 0.0038 in 3:
         // no mover soon, so the skin again.
         list.served = 4;
         assert_eq!(
-            list.plan(&rows(&[(5, 0.0051), (9, 0.0051), (12, 0.0051)]), &cells, false),
+            list.plan(&rows(&[(5, 0.0051), (9, 0.0051), (12, 0.0051)]), &cells.slot, false),
             Plan::Search { skin: 0.01 }
         );
         // A NaN counts as a mover, on the pool too.
         let mut bad = rows(&[]);
-        bad[7][1] = f32::NAN;
+        bad[7].y = f32::NAN;
         list.served = 1;
-        assert_eq!(list.plan(&bad, &cells, true), Plan::Keep);
-        assert_eq!(list.movers, [7]);
+        assert_eq!(list.plan(&bad, &cells.slot, true), Plan::Keep);
+        assert_eq!(list.movers, [slot_of(7)]);
     }
 }

@@ -43,12 +43,18 @@
 //! snapshot of positions (Jacobi) and summed per particle from zero in the
 //! order the pairs were found: the pairs where it is the later slot (by
 //! the earlier slot), then its own, then a kept list's pairs of movers.
-//! The order depends on neither the thread count nor the SIMD level.
-//! Large cloths search, test and compute pairs in chunks of the table on
-//! the rayon pool, and sum each chunk's slots on the pool too. The phase
-//! reads each pair's data (substep-start positions, weights, rest
-//! positions) from copies in the table's order, so the particles near one
-//! another are near in memory.
+//! The order depends on neither the thread count nor the SIMD level; it
+//! does depend on the order of the rows the phase is given (a solver may
+//! give its own, [`SelfContact::apply_numbered`]: within a cell the
+//! particles come in row order). Large cloths search, test and compute
+//! pairs in chunks of the table on the rayon pool, and sum each chunk's
+//! slots on the pool too. The phase reads each pair's data (positions,
+//! substep-start positions, weights, rest positions) from copies in the
+//! table's order, so the particles near one another are near in memory. A
+//! plain search copies the rows of its pairs' ends only: a cloth that
+//! keeps moving finds few pairs (none on disc-183 draped over a ball, where
+//! copying every row had cost more than the search), while a search with a
+//! skin copies every row, as any slot may pair with a mover later.
 
 mod cells;
 mod list;
@@ -59,7 +65,7 @@ use crate::sim::fast::simd::dispatch;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use cells::{Cells, PER_TASK, gather};
+use cells::{Cells, PER_TASK, gather, gather_rows};
 use list::{Candidates, PairList, Plan};
 use pair::{Moves, Slots, pair_corrections};
 
@@ -87,8 +93,8 @@ pub struct SelfContact {
     slot_start: Vec<[f32; 4]>,
     slot_rest: Vec<[f32; 4]>,
     correction: Vec<Vec3>,
-    /// Particle → slot: the inverse of the table's order.
-    slot_of: Vec<u32>,
+    /// Scratch: the slots a plain search's pairs end in.
+    ends: Vec<bool>,
     /// Searches and substeps since the phase was made (for reports).
     searches: u64,
     substeps: u64,
@@ -132,10 +138,11 @@ struct Pairs {
 }
 
 dispatch! {
-    /// The pairs of slots `chunk · CHUNK ..` with later slots that act now:
-    /// from a search of radius r + s (`plan`'s skin s; 0: the plain search,
-    /// whose pairs are all closer than r), or from the kept list and the
-    /// movers searched again.
+    /// The pairs of slots `chunk · CHUNK ..` with later slots that act now
+    /// (their moves not yet computed): from a search of radius r + s
+    /// (`plan`'s skin s; 0: the plain search, whose pairs are all closer
+    /// than r, some maybe with two pinned ends), or from the kept list and
+    /// the movers searched again.
     fn pairs_of(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep) -> Pairs
         = pairs_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
@@ -144,30 +151,19 @@ dispatch! {
 fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep) -> Pairs {
     let mut pairs = Pairs::default();
     let first = chunk * CHUNK;
-    let count = CHUNK.min(phase.slot_point.len() - first);
+    let count = CHUNK.min(phase.cells.order.len() - first);
     let point = &phase.slot_point;
-    // Two pinned particles do not touch each other (w_i + w_j = 0).
-    let free = |slot: u32| point[slot as usize][3] > 0.0;
     let r2 = acting_distance2(step);
     match plan {
         Plan::Search { skin: 0.0 } => {
+            // Pairs of two pinned ends are dropped in `corrections`, once
+            // their rows are copied.
             phase.cells.pairs_after(first, count, step.thickness, &mut pairs.own, &mut pairs.other);
-            if !(first..first + count).all(|slot| free(slot as u32)) {
-                let mut kept = 0;
-                for k in 0..pairs.own.len() {
-                    if free(pairs.own[k]) || free(pairs.other[k]) {
-                        (pairs.own[kept], pairs.other[kept]) = (pairs.own[k], pairs.other[k]);
-                        kept += 1;
-                    }
-                }
-                pairs.own.truncate(kept);
-                pairs.other.truncate(kept);
-            }
         }
         Plan::Search { skin } => {
             let mut kept = Candidates::default();
             phase.cells.pairs_after(first, count, step.thickness + skin, &mut kept.own, &mut kept.other);
-            kept.sort_by_other(phase.slot_point.len().div_ceil(CHUNK));
+            kept.sort_by_other(phase.cells.order.len().div_ceil(CHUNK));
             push_close(&kept, point, r2, &mut pairs);
             pairs.kept = kept;
         }
@@ -202,7 +198,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactS
             }
         }
     }
-    corrections(phase, pairs, step, &phase.list.mover)
+    pairs
 }
 
 /// The squared distance under which a pair acts ([`acts`]): r², with a
@@ -242,8 +238,21 @@ fn push_close(candidates: &Candidates, point: &[[f32; 4]], r2: f32, pairs: &mut 
 
 /// `pairs` with the moves of both ends of each pair; the first
 /// `pairs.listed` give nothing where an end is marked in `mover` or both
-/// are pinned.
-fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mover: &[bool]) -> Pairs {
+/// are pinned. With `unpinned`, the pairs of two pinned ends are dropped
+/// first (w_i + w_j = 0: they do not touch each other).
+fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mover: &[bool], unpinned: bool) -> Pairs {
+    if unpinned {
+        let free = |slot: u32| phase.slot_point[slot as usize][3] > 0.0;
+        let mut kept = 0;
+        for k in 0..pairs.own.len() {
+            if free(pairs.own[k]) || free(pairs.other[k]) {
+                (pairs.own[kept], pairs.other[kept]) = (pairs.own[k], pairs.other[k]);
+                kept += 1;
+            }
+        }
+        pairs.own.truncate(kept);
+        pairs.other.truncate(kept);
+    }
     pairs.moved_own = vec![Vec3::ZERO; pairs.own.len()];
     pairs.moved_other = vec![Vec3::ZERO; pairs.own.len()];
     let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest, skip: None };
@@ -261,7 +270,7 @@ fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mo
     // (a kept list's pairs were sorted so when it was made).
     let (other, moved) = (&pairs.other[listed..], &pairs.moved_other[listed..]);
     let mut to = vec![(0, Vec3::ZERO); other.len()];
-    pairs.ends = sort_by_chunk(other, phase.slot_point.len().div_ceil(CHUNK), |k, at| to[at] = (other[k], moved[k]));
+    pairs.ends = sort_by_chunk(other, phase.cells.order.len().div_ceil(CHUNK), |k, at| to[at] = (other[k], moved[k]));
     pairs.to = to;
     pairs
 }
@@ -305,6 +314,22 @@ impl SelfContact {
     /// The phase on positions `x` (scene order) that started the substep at
     /// `x0`, with inverse masses `w`.
     pub fn apply(&mut self, x: &mut [Vec3], x0: &[Vec3], w: &[f32], step: &SelfContactStep) {
+        self.apply_numbered(x, x0, w, None, step);
+    }
+
+    /// [`Self::apply`] on arrays in a solver's own order: row k holds scene
+    /// particle `scene[k]` (a permutation; `None`: scene order). The pairs
+    /// and their pushes are the same; within a cell the particles come in
+    /// the rows' order, which sets the order of each particle's sum (so
+    /// its last bits, for particles with three or more pairs).
+    pub fn apply_numbered(
+        &mut self,
+        x: &mut [Vec3],
+        x0: &[Vec3],
+        w: &[f32],
+        scene: Option<&[u32]>,
+        step: &SelfContactStep,
+    ) {
         let r = step.thickness;
         let n = x.len();
         if n < 2 || r <= 0.0 {
@@ -330,36 +355,52 @@ impl SelfContact {
         }
         self.substeps += 1;
         let x_now: &[Vec3] = x;
-        let plan = if self.list.serves(&self.cells, r, n) {
-            gather(&mut self.slot_point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
-            self.list.plan(&self.slot_point, &self.cells, parallel)
+        let plan = if self.list.serves(r, n) {
+            self.list.plan(x_now, &self.cells.slot, parallel)
         } else {
             Plan::Search { skin: 0.0 }
         };
+        let rest = &self.rest;
+        let rest_of = |i: usize| rest[scene.map_or(i, |scene| scene[i] as usize)];
+        let rows = |i: usize| [row(x_now[i], w[i]), row(x0[i], 0.0), row(rest_of(i), 0.0)];
+        let slots = [&mut self.slot_point, &mut self.slot_start, &mut self.slot_rest];
         match plan {
-            Plan::Keep => {}
+            Plan::Keep => {
+                let [point, start, _] = slots;
+                gather(point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
+                gather(start, &self.cells.order, parallel, |i| row(x0[i], 0.0));
+            }
             Plan::Search { skin } => {
                 self.searches += 1;
                 self.cells.build(x_now, 2.0 * (r + skin), parallel);
-                let rest = &self.rest;
-                gather(&mut self.slot_rest, &self.cells.order, parallel, |i| row(rest[i], 0.0));
-                self.slot_of.resize(n, 0);
-                for (k, &i) in self.cells.order.iter().enumerate() {
-                    self.slot_of[i as usize] = k as u32;
+                if skin > 0.0 {
+                    // Every slot may pair with a mover later.
+                    gather_rows(slots, &self.cells.order, parallel, rows);
                 }
-                gather(&mut self.slot_point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
             }
         }
-        gather(&mut self.slot_start, &self.cells.order, parallel, |i| row(x0[i], 0.0));
         let this = &*self;
         let find = |c: usize| pairs_of(this, c, plan, step);
         let chunks = n.div_ceil(CHUNK);
         let mut found: Vec<Pairs> =
             if parallel { (0..chunks).into_par_iter().map(find).collect() } else { (0..chunks).map(find).collect() };
+        let plain = plan == Plan::Search { skin: 0.0 };
+        if plain {
+            // Only the pairs' ends read their rows: a moving cloth finds
+            // few pairs (none on disc-183 draped over a ball), and copying
+            // every row cost more than the search.
+            let slots = [&mut self.slot_point, &mut self.slot_start, &mut self.slot_rest];
+            copy_ends(&found, slots, &mut self.ends, &self.cells.order, parallel, rows);
+        }
+        let this = &*self;
+        let mover = &self.list.mover;
+        let moves = |pairs: Pairs| corrections(this, pairs, step, mover, plain);
+        found =
+            if parallel { found.into_par_iter().map(moves).collect() } else { found.into_iter().map(moves).collect() };
         match plan {
             Plan::Search { skin } => {
                 let kept = found.iter_mut().map(|pairs| std::mem::take(&mut pairs.kept)).collect();
-                self.list.searched(r, skin, kept);
+                self.list.searched(r, skin, kept, x);
             }
             Plan::Keep => found.push(self.mover_pairs(step)),
         }
@@ -401,7 +442,7 @@ impl SelfContact {
             }
         }
         // Each particle takes its slot's sum, in scene order.
-        let (slot_of, sums) = (&self.slot_of, &correction);
+        let (slot_of, sums) = (&self.cells.slot, &correction);
         let take = |(c, x): (usize, &mut [Vec3])| {
             for (x, &k) in x.iter_mut().zip(&slot_of[c * PER_TASK..]) {
                 *x += sums[k as usize];
@@ -436,7 +477,50 @@ impl SelfContact {
                 }
             }
         }
-        corrections(self, pairs, step, &[])
+        corrections(self, pairs, step, &[], false)
+    }
+}
+
+/// The rows of the slots that `found`'s pairs end in, into `slots` (point,
+/// start, rest), `pick(particle)` each; the other slots' rows are left as
+/// they were. `ends` is scratch, all false before and after.
+fn copy_ends(
+    found: &[Pairs],
+    slots: [&mut Vec<[f32; 4]>; 3],
+    ends: &mut Vec<bool>,
+    order: &[u32],
+    parallel: bool,
+    pick: impl Fn(usize) -> [[f32; 4]; 3] + Sync + Send,
+) {
+    let n = order.len();
+    ends.resize(n, false);
+    let mut any = false;
+    for pairs in found {
+        for (&i, &j) in pairs.own.iter().zip(&pairs.other) {
+            (ends[i as usize], ends[j as usize]) = (true, true);
+            any = true;
+        }
+    }
+    if !any {
+        return;
+    }
+    let [a, b, c] = slots;
+    for table in [&mut *a, &mut *b, &mut *c] {
+        table.resize(n, [0.0; 4]);
+    }
+    type Chunk<'a> = (usize, (((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), &'a mut [[f32; 4]]), &'a mut [bool]));
+    let fill = |(t, (((a, b), c), ends)): Chunk| {
+        for (k, end) in ends.iter_mut().enumerate().filter(|(_, end)| **end) {
+            [a[k], b[k], c[k]] = pick(order[t * PER_TASK + k] as usize);
+            *end = false;
+        }
+    };
+    if parallel {
+        let tables = a.par_chunks_mut(PER_TASK).zip(b.par_chunks_mut(PER_TASK)).zip(c.par_chunks_mut(PER_TASK));
+        tables.zip(ends.par_chunks_mut(PER_TASK)).enumerate().for_each(fill);
+    } else {
+        let tables = a.chunks_mut(PER_TASK).zip(b.chunks_mut(PER_TASK)).zip(c.chunks_mut(PER_TASK));
+        tables.zip(ends.chunks_mut(PER_TASK)).enumerate().for_each(fill);
     }
 }
 

@@ -141,14 +141,15 @@ impl GenericLayout {
         }
     }
 
-    /// `f` on every particle's row and its scene index, in chunks of the
-    /// layout's order, on the thread pool when the passes use it.
-    fn each_row(&mut self, f: impl Fn(&mut Particle, usize) + Sync) {
+    /// `f` on every particle's row, its slot in the layout and its scene
+    /// index, in chunks of the layout's order, on the thread pool when the
+    /// passes use it.
+    fn each_row(&mut self, f: impl Fn(&mut Particle, usize, usize) + Sync) {
         let renumbering = self.renumbering.as_ref();
         let chunk = |(c, particles): (usize, &mut [Particle])| {
             for (j, p) in particles.iter_mut().enumerate() {
                 let k = c * CHUNK + j;
-                f(p, renumbering.map_or(k, |r| r.scene[k] as usize));
+                f(p, k, renumbering.map_or(k, |r| r.scene[k] as usize));
             }
         };
         if self.uses_pool() {
@@ -267,7 +268,7 @@ impl Solver for GenericLayout {
 
     /// Each particle alone, [`GenericLayout::each_row`]: the same bits.
     fn push(&mut self, displacement: &[Vec3]) {
-        self.each_row(|p, i| {
+        self.each_row(|p, _, i| {
             if p.weight > 0.0 {
                 let delta = displacement[i];
                 for k in 0..3 {
@@ -316,9 +317,12 @@ impl Solver for GenericLayout {
         self.each_chunk(|particles, d, q| collide::collide_chunk(particles, d, q, contact));
     }
 
-    /// Gathers positions, start positions (x_pred − d) and weights into
-    /// scene order, runs the phase, writes the positions back (in chunks of
-    /// the layout's order on the thread pool when the passes use it).
+    /// Copies positions, start positions (x_pred − d) and weights in the
+    /// layout's order, runs the phase on them (rows numbered by the
+    /// renumbering), writes the positions back; in chunks on the thread
+    /// pool when the passes use it. (Gathering them into scene order
+    /// instead had one thread scatter every row: 1.2 ms a step on
+    /// disc-183.)
     fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep) {
         let (mut x, mut x0, mut w) =
             (std::mem::take(&mut phase.x), std::mem::take(&mut phase.x0), std::mem::take(&mut phase.w));
@@ -326,18 +330,26 @@ impl Solver for GenericLayout {
         x.resize(n, Vec3::ZERO);
         x0.resize(n, Vec3::ZERO);
         w.resize(n, 0.0);
-        // In the layout's order, the rows read in sequence and written to
-        // scene order: one thread, as the writes go anywhere. Reading in
-        // scene order instead (from anywhere, in chunks on the pool) was
-        // no faster on two threads and 6 % slower a step on one (disc-183
-        // with self-collision, host D, both in one process).
-        let renumbering = self.renumbering.as_ref();
-        for (k, ((p, d), q)) in self.particles.iter().zip(&self.displacement).zip(&self.predicted).enumerate() {
-            let i = renumbering.map_or(k, |r| r.scene[k] as usize);
-            (x[i], x0[i], w[i]) = (Vec3::from_array(p.position), Vec3::from_array(*q) - Vec3::from_array(*d), p.weight);
+        let (particles, displacement, predicted) = (&self.particles, &self.displacement, &self.predicted);
+        type Rows<'a> = (usize, ((&'a mut [Vec3], &'a mut [Vec3]), &'a mut [f32]));
+        let copy = |(c, ((x, x0), w)): Rows| {
+            let at = c * CHUNK;
+            let rows = particles[at..].iter().zip(&displacement[at..]).zip(&predicted[at..]);
+            for ((((p, d), q), x), (x0, w)) in rows.zip(x.iter_mut()).zip(x0.iter_mut().zip(w.iter_mut())) {
+                (*x, *x0, *w) = (Vec3::from_array(p.position), Vec3::from_array(*q) - Vec3::from_array(*d), p.weight);
+            }
+        };
+        if self.uses_pool() {
+            x.par_chunks_mut(CHUNK)
+                .zip(x0.par_chunks_mut(CHUNK))
+                .zip(w.par_chunks_mut(CHUNK))
+                .enumerate()
+                .for_each(copy);
+        } else {
+            x.chunks_mut(CHUNK).zip(x0.chunks_mut(CHUNK)).zip(w.chunks_mut(CHUNK)).enumerate().for_each(copy);
         }
-        phase.apply(&mut x, &x0, &w, step);
-        self.each_row(|p, i| p.position = x[i].to_array());
+        phase.apply_numbered(&mut x, &x0, &w, self.renumbering.as_ref().map(|r| &r.scene[..]), step);
+        self.each_row(|p, k, _| p.position = x[k].to_array());
         (phase.x, phase.x0, phase.w) = (x, x0, w);
     }
 

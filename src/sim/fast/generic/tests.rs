@@ -320,28 +320,46 @@ fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
 }
 
 #[test]
-fn self_collide_runs_the_phase_in_scene_order_on_one_thread_and_on_two() {
-    // The shuffled 130 × 130 sheet (renumbered: two blocks) squeezed to
-    // 0.3 of its width, at rest (x0 = x): particles two columns apart are
-    // 0.06 m from each other, 0.2 m in the rest shape, so the phase pushes
-    // them apart towards r = 0.08. The layout gathers its rows into scene
-    // order (in chunks on the pool with two threads), runs the phase and
-    // writes the positions back: the bits of the phase run on the scene's
-    // arrays directly.
+fn self_collide_runs_the_phase_in_the_layouts_order_on_one_thread_and_on_two() {
+    // The shuffled 130 × 130 sheet of 0.1 m (renumbered: two blocks)
+    // squeezed to 0.3 of its width, at rest (x0 = x), r = 0.12: neighbours
+    // along a row are 0.03 m apart, 0.1 m in the rest shape, so the phase
+    // pushes them back towards 0.1; diagonal neighbours (0.104 m now, 0.141
+    // at rest) towards r. The layout runs the phase on its own rows (copied
+    // in chunks on the pool with two threads), numbered by its
+    // renumbering: with another particle's rest position, most neighbours
+    // would be pushed towards r instead, and neighbours along a column (0.1
+    // apart now) would be pushed too.
     let (rest, bars) = shuffled_sheet(130);
     let squeezed: Vec<Vec3> = rest.iter().map(|p| Vec3::new(p.x * 0.3, p.y, p.z)).collect();
     let n = rest.len();
     let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { 1.0 }).collect();
     let mut layout = GenericLayout::new(&squeezed, &squeezed, &weights, &bars, None);
-    assert!(layout.renumbering.is_some());
+    let scene = layout.renumbering.as_ref().expect("renumbered").scene.clone();
     for (q, p) in layout.predicted.iter_mut().zip(&layout.particles) {
         *q = p.position;
     }
-    let step = SelfContactStep { thickness: 0.08, friction: 0.2, parallel: true };
-    let mut expected = squeezed.clone();
-    SelfContact::new(&rest).apply(&mut expected, &squeezed, &weights, &step);
-    let moved = expected.iter().zip(&squeezed).filter(|(a, b)| a != b).count();
+    let step = SelfContactStep { thickness: 0.12, friction: 0.2, parallel: true };
+    // The phase on the scene's arrays in scene order.
+    let mut in_scene_order = squeezed.clone();
+    SelfContact::new(&rest).apply(&mut in_scene_order, &squeezed, &weights, &step);
+    let moved = in_scene_order.iter().zip(&squeezed).filter(|(a, b)| a != b).count();
     assert!(moved > n / 2, "the phase moved {moved} of {n} particles");
+    // The phase on the same arrays in the layout's order.
+    let by_row = |v: &[Vec3]| -> Vec<Vec3> { scene.iter().map(|&i| v[i as usize]).collect() };
+    let mut rows = by_row(&squeezed);
+    let row_weights: Vec<f32> = scene.iter().map(|&i| weights[i as usize]).collect();
+    SelfContact::new(&rest).apply_numbered(&mut rows, &by_row(&squeezed), &row_weights, Some(&scene), &step);
+    let mut expected = vec![Vec3::ZERO; n];
+    for (k, &i) in scene.iter().enumerate() {
+        expected[i as usize] = rows[k];
+    }
+    // The same pairs and pushes: only the order of a particle's sum
+    // differs, a few ulps of coordinates below 1.3 m (an ulp is 1.2e-7
+    // there); a pair given the wrong rest position would move by ≥ 1e-3.
+    for (a, b) in expected.iter().zip(&in_scene_order) {
+        assert!(a.distance(*b) < 1e-6, "{a} against {b}");
+    }
     let bits = |x: &[Vec3]| x.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a pool");
