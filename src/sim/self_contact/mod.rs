@@ -404,6 +404,11 @@ impl SelfContact {
             }
             Plan::Keep => found.push(self.mover_pairs(step)),
         }
+        if found.iter().all(|pairs| pairs.own.is_empty()) {
+            // No pair acts: nothing to sum or take (a sliding cloth's
+            // substeps, often).
+            return;
+        }
         // Each slot sums its pairs from zero in the order they were found:
         // the pairs where it is the other end (by the run that found them),
         // then those it owns. For a search that is: its pairs with earlier
@@ -441,7 +446,7 @@ impl SelfContact {
                 correction[i as usize] += moved;
             }
         }
-        // Each particle takes its slot's sum, in scene order.
+        // Each particle takes its slot's sum, in row order.
         let (slot_of, sums) = (&self.cells.slot, &correction);
         let take = |(c, x): (usize, &mut [Vec3])| {
             for (x, &k) in x.iter_mut().zip(&slot_of[c * PER_TASK..]) {
