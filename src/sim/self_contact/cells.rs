@@ -132,29 +132,33 @@ pub(super) fn gather<T: Copy + Default + Send>(
     }
 }
 
-/// [`gather`] into three row tables at once: `out[t][k] = pick(order[k])[t]`,
-/// each particle read once.
+/// [`gather`] into three row tables at once, for the slots `wanted` keeps:
+/// `out[t][k] = pick(order[k])[t]`, each particle read once; the other
+/// slots' rows are left as they were.
 pub(super) fn gather_rows(
     out: [&mut Vec<[f32; 4]>; 3],
     order: &[u32],
     parallel: bool,
+    wanted: impl Fn(usize) -> bool + Sync,
     pick: impl Fn(usize) -> [[f32; 4]; 3] + Sync + Send,
 ) {
     let [a, b, c] = out;
     for table in [&mut *a, &mut *b, &mut *c] {
         table.resize(order.len(), [0.0; 4]);
     }
-    type Chunk<'a> = (((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), &'a mut [[f32; 4]]), &'a [u32]);
-    let fill = |(((a, b), c), order): Chunk| {
-        for (((a, b), c), &i) in a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()).zip(order) {
+    type Chunk<'a> = (usize, (((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), &'a mut [[f32; 4]]), &'a [u32]));
+    let fill = |(t, (((a, b), c), order)): Chunk| {
+        let rows = a.iter_mut().zip(b.iter_mut()).zip(c.iter_mut()).zip(order).enumerate();
+        for (_, (((a, b), c), &i)) in rows.filter(|&(k, _)| wanted(t * PER_TASK + k)) {
             [*a, *b, *c] = pick(i as usize);
         }
     };
     if parallel {
         let tables = a.par_chunks_mut(PER_TASK).zip(b.par_chunks_mut(PER_TASK)).zip(c.par_chunks_mut(PER_TASK));
-        tables.zip(order.par_chunks(PER_TASK)).for_each(fill);
+        tables.zip(order.par_chunks(PER_TASK)).enumerate().for_each(fill);
     } else {
-        fill((((a, b), c), order));
+        let tables = a.chunks_mut(PER_TASK).zip(b.chunks_mut(PER_TASK)).zip(c.chunks_mut(PER_TASK));
+        tables.zip(order.chunks(PER_TASK)).enumerate().for_each(fill);
     }
 }
 
@@ -163,7 +167,9 @@ impl Cells {
     /// With `parallel`, the per-particle passes run on the thread pool (the
     /// counting sort itself does not; the result is the same).
     pub(super) fn build(&mut self, x: &[Vec3], side: f32, parallel: bool) {
-        self.build_with(x, side, Self::bits_for(x.len()), parallel);
+        // 2^b ≥ 2n buckets, and at least two blocks' worth.
+        let bits = (2 * x.len().max(1)).next_power_of_two().trailing_zeros().max(3 * BLOCK_BITS + 1);
+        self.build_with(x, side, bits, parallel);
     }
 
     /// [`Self::build`] into 2^`bits` buckets (`bits` in 7..=32).
@@ -189,11 +195,6 @@ impl Cells {
         } else {
             fill((((xs, ys), zs), &self.order));
         }
-    }
-
-    /// b for n particles: 2^b ≥ 2n buckets, and at least two blocks' worth.
-    fn bits_for(n: usize) -> u32 {
-        (2 * n.max(1)).next_power_of_two().trailing_zeros().max(3 * BLOCK_BITS + 1)
     }
 
     /// The counting sort of [`Self::build`]: `order`, `slot` and `start`.

@@ -146,8 +146,8 @@ impl PairList {
             // Each chunk's movers' slots, listed while there are few.
             let movers = |c: usize| {
                 let (mut count, mut slots) = (0, Vec::new());
-                let first = c * PER_TASK;
-                for (i, &k) in slot.iter().enumerate().take(n.min(first + PER_TASK)).skip(first) {
+                let rows = c * PER_TASK..n.min((c + 1) * PER_TASK);
+                for (i, &k) in rows.clone().zip(&slot[rows]) {
                     if beyond_since(i, reach2) {
                         count += 1;
                         if count <= cap {

@@ -375,7 +375,7 @@ impl SelfContact {
                 self.cells.build(x_now, 2.0 * (r + skin), parallel);
                 if skin > 0.0 {
                     // Every slot may pair with a mover later.
-                    gather_rows(slots, &self.cells.order, parallel, rows);
+                    gather_rows(slots, &self.cells.order, parallel, |_| true, rows);
                 }
             }
         }
@@ -487,8 +487,9 @@ impl SelfContact {
 }
 
 /// The rows of the slots that `found`'s pairs end in, into `slots` (point,
-/// start, rest), `pick(particle)` each; the other slots' rows are left as
-/// they were. `ends` is scratch, all false before and after.
+/// start, rest), `pick(particle)` each ([`gather_rows`]); the other slots'
+/// rows are left as they were. `ends` is scratch, all false before and
+/// after.
 fn copy_ends(
     found: &[Pairs],
     slots: [&mut Vec<[f32; 4]>; 3],
@@ -497,8 +498,7 @@ fn copy_ends(
     parallel: bool,
     pick: impl Fn(usize) -> [[f32; 4]; 3] + Sync + Send,
 ) {
-    let n = order.len();
-    ends.resize(n, false);
+    ends.resize(order.len(), false);
     let mut any = false;
     for pairs in found {
         for (&i, &j) in pairs.own.iter().zip(&pairs.other) {
@@ -506,26 +506,9 @@ fn copy_ends(
             any = true;
         }
     }
-    if !any {
-        return;
-    }
-    let [a, b, c] = slots;
-    for table in [&mut *a, &mut *b, &mut *c] {
-        table.resize(n, [0.0; 4]);
-    }
-    type Chunk<'a> = (usize, (((&'a mut [[f32; 4]], &'a mut [[f32; 4]]), &'a mut [[f32; 4]]), &'a mut [bool]));
-    let fill = |(t, (((a, b), c), ends)): Chunk| {
-        for (k, end) in ends.iter_mut().enumerate().filter(|(_, end)| **end) {
-            [a[k], b[k], c[k]] = pick(order[t * PER_TASK + k] as usize);
-            *end = false;
-        }
-    };
-    if parallel {
-        let tables = a.par_chunks_mut(PER_TASK).zip(b.par_chunks_mut(PER_TASK)).zip(c.par_chunks_mut(PER_TASK));
-        tables.zip(ends.par_chunks_mut(PER_TASK)).enumerate().for_each(fill);
-    } else {
-        let tables = a.chunks_mut(PER_TASK).zip(b.chunks_mut(PER_TASK)).zip(c.chunks_mut(PER_TASK));
-        tables.zip(ends.chunks_mut(PER_TASK)).enumerate().for_each(fill);
+    if any {
+        gather_rows(slots, order, parallel, |k| ends[k], pick);
+        ends.fill(false);
     }
 }
 
