@@ -23,6 +23,7 @@
 //! how much).
 
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 /// A SIMD level of the lane kernels, in increasing order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -36,6 +37,9 @@ pub enum SimdLevel {
 }
 
 impl SimdLevel {
+    /// Every level, in increasing order.
+    pub const ALL: [SimdLevel; 3] = [SimdLevel::Portable, SimdLevel::Avx2, SimdLevel::Avx512];
+
     /// The name `DRAPE_SIMD` takes.
     pub fn name(self) -> &'static str {
         match self {
@@ -103,9 +107,34 @@ fn chosen() -> &'static (SimdLevel, Option<String>, Option<String>) {
     })
 }
 
-/// The level the kernels run at (read from `DRAPE_SIMD` once).
+/// A level set by [`force`]: 0 when none is, else 1 + the level's place in
+/// [`SimdLevel::ALL`].
+static FORCED: AtomicU8 = AtomicU8::new(0);
+
+/// The level the kernels run at: the one [`force`] set last, else the one
+/// `DRAPE_SIMD` asked for (read once), else the best the CPU has.
 pub fn level() -> SimdLevel {
-    chosen().0
+    match FORCED.load(Ordering::Relaxed) {
+        0 => chosen().0,
+        forced => SimdLevel::ALL[usize::from(forced - 1)],
+    }
+}
+
+/// Runs the kernels at `requested` from now on, in every thread of this
+/// process, down to what the CPU has ([`SimdLevel::best_available`]: a
+/// level the CPU lacks is never used); returns the level in force.
+///
+/// For comparing levels inside one process (`benches/ratios.rs` alternates
+/// them window by window, so that a busy host's noise falls on each).
+/// Safe between any two steps: no layout depends on the level, and AVX2
+/// and AVX-512 compute the same bits; the portable level differs in the
+/// last bits where its target has no FMA ([`PORTABLE_FUSED`]).
+pub fn force(requested: SimdLevel) -> SimdLevel {
+    let level = requested.min(SimdLevel::best_available());
+    let place = SimdLevel::ALL.iter().position(|&l| l == level).unwrap_or(0);
+    // At most 3: the cast is exact.
+    FORCED.store(1 + place as u8, Ordering::Relaxed);
+    level
 }
 
 /// Why the level is not the one `DRAPE_SIMD` asked for, if it is not.
@@ -115,7 +144,11 @@ pub fn note() -> Option<&'static str> {
 
 /// The level and where it came from, as `drape run` prints it.
 pub fn describe() -> String {
-    let (level, note, request) = chosen();
+    let (chosen_level, note, request) = chosen();
+    let level = level();
+    if level != *chosen_level {
+        return format!("{} (forced in this process; {} before)", level.name(), chosen_level.name());
+    }
     let why = match (note, request) {
         (Some(note), _) => note.clone(),
         (None, Some(request)) => format!("DRAPE_SIMD={request}"),
@@ -204,5 +237,27 @@ mod tests {
         let (level, note) = choose(Some("sse9"), Avx2);
         assert_eq!(level, Avx2);
         assert!(note.unwrap().contains("not a level"));
+    }
+
+    #[test]
+    fn a_forced_level_is_capped_at_what_the_cpu_has_and_can_be_undone() {
+        // The level is the process's, and other tests run beside this one:
+        // it forces only AVX2 and AVX-512, which compute the same bits (a
+        // test comparing two runs cannot see the switch), only where the
+        // level in force is one of them, and puts that one back.
+        let before = level();
+        if before < SimdLevel::Avx2 {
+            eprintln!("the level in force is {before:?}: not switched under the other tests");
+            return;
+        }
+        let best = SimdLevel::best_available();
+        for requested in [SimdLevel::Avx2, SimdLevel::Avx512, SimdLevel::Avx2] {
+            let got = force(requested);
+            assert_eq!(got, requested.min(best), "asked for {requested:?} on a CPU whose best is {best:?}");
+            assert_eq!(level(), got);
+            assert!(describe().starts_with(got.name()), "{}", describe());
+        }
+        assert_eq!(force(before), before);
+        assert_eq!(level(), before);
     }
 }
