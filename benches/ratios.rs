@@ -326,7 +326,10 @@ fn report(name: &str, comparison: &Comparison) {
                 Some(Target::AtMost(t)) => format!("≤ {t}×: {}", if r <= t { "met" } else { "missed" }),
                 None => String::new(),
             };
-            (format!("{r:.2}× ({rlo:.2}–{rhi:.2})"), verdict)
+            // A phase's cost to three decimals, so that a median just over
+            // its target does not print as the target itself.
+            let digits = if matches!(target, Some(Target::AtMost(_))) { 3 } else { 2 };
+            (format!("{r:.digits$}× ({rlo:.digits$}–{rhi:.digits$})"), verdict)
         };
         let ns = if run.threads == Threads::One && run.level.is_some() {
             let t = median(&run.per_step) * 1e9;
