@@ -59,7 +59,7 @@ struct Run {
     threads: Threads,
     /// The run this one's ratio is against (its own index for a base).
     base: usize,
-    /// Steps a window (set by the first round's calibration).
+    /// Steps a window (sized before the rounds).
     steps: u32,
     /// Seconds a step, one value a round.
     per_step: Vec<f64>,
@@ -97,7 +97,9 @@ fn main() {
     let levels = if levels.is_empty() { vec![SimdLevel::Portable] } else { levels };
     let before = simd::level();
     println!(
-        "# Ratios in one process: {} rounds, windows of {} ms; levels {}; {} threads in the global pool",
+        "# Ratios in one process on {} (best level {}): {} rounds, windows of {} ms; levels {}; {} threads in the global pool",
+        cpu_name(),
+        SimdLevel::best_available().label(),
         options.rounds,
         options.window.as_millis(),
         levels.iter().map(|l| l.label()).collect::<Vec<_>>().join(", "),
@@ -114,9 +116,11 @@ fn main() {
     simd::force(before);
 }
 
+/// Builds a comparison's runs for the kernel levels given.
+type Build = fn(&[SimdLevel]) -> Comparison;
+
 /// The comparisons, by name, each built only when its name is kept.
-#[allow(clippy::type_complexity)]
-fn comparisons() -> Vec<(&'static str, fn(&[SimdLevel]) -> Comparison)> {
+fn comparisons() -> Vec<(&'static str, Build)> {
     vec![
         ("seed, 20 relaxations, 1 thread", seed),
         ("256 x 256, 20 relaxations, all threads", square_256),
@@ -340,6 +344,18 @@ fn report(name: &str, comparison: &Comparison) {
         };
         println!("| {name} | {:.3} ({lo:.3}–{hi:.3}) | {ratio} | {verdict} | {ns} |", median(&ms));
     }
+}
+
+/// The CPU's model name, as Linux reports it (`/proc/cpuinfo`), else
+/// "this CPU".
+fn cpu_name() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            let line = info.lines().find(|l| l.starts_with("model name"))?;
+            Some(line.split_once(':')?.1.trim().to_string())
+        })
+        .unwrap_or_else(|| "this CPU".to_string())
 }
 
 /// Bar projections a step over the bars with an end that is not fixed.
