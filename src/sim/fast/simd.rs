@@ -107,8 +107,8 @@ fn chosen() -> &'static (SimdLevel, Option<String>, Option<String>) {
     })
 }
 
-/// A level set by [`force`]: 0 when none is, else 1 + the level's place in
-/// [`SimdLevel::ALL`].
+/// A level set by [`force`]: 0 when none is, else 1 + the level's
+/// discriminant (its place in [`SimdLevel::ALL`]).
 static FORCED: AtomicU8 = AtomicU8::new(0);
 
 /// The level the kernels run at: the one [`force`] set last, else the one
@@ -131,9 +131,7 @@ pub fn level() -> SimdLevel {
 /// last bits where its target has no FMA ([`PORTABLE_FUSED`]).
 pub fn force(requested: SimdLevel) -> SimdLevel {
     let level = requested.min(SimdLevel::best_available());
-    let place = SimdLevel::ALL.iter().position(|&l| l == level).unwrap_or(0);
-    // At most 3: the cast is exact.
-    FORCED.store(1 + place as u8, Ordering::Relaxed);
+    FORCED.store(1 + level as u8, Ordering::Relaxed);
     level
 }
 
