@@ -59,12 +59,16 @@ fn first_repeated_bar(bars: &[Bar], particles: usize) -> Option<usize> {
             continue;
         }
         // A cloth's buckets hold a handful of bars: compare every pair.
+        // Their upper ends are read once, into a local array.
         if members.len() <= 16 {
-            for (k, &j) in members.iter().enumerate() {
-                if members[..k].iter().any(|&i| hi(&bars[i as usize]) == hi(&bars[j as usize])) {
-                    first = Some(first.map_or(j as usize, |f| f.min(j as usize)));
-                    break;
-                }
+            let mut upper = [0u32; 16];
+            for (u, &i) in upper.iter_mut().zip(members) {
+                *u = hi(&bars[i as usize]);
+            }
+            let upper = &upper[..members.len()];
+            if let Some(k) = (1..upper.len()).find(|&k| upper[..k].contains(&upper[k])) {
+                let j = members[k] as usize;
+                first = Some(first.map_or(j, |f| f.min(j)));
             }
             continue;
         }

@@ -318,30 +318,30 @@ fn op_bar(
     block: usize,
 ) -> OpBar {
     let (dc, _) = offset.delta();
+    let Some(class) = shape::BarTable::class(offset) else {
+        return OpBar::None;
+    };
+    // (tile, lane, column) of every lane whose bar is within the grid.
+    let lane_columns = || {
+        let lanes = lanes.clone();
+        (0..tiles).flat_map(move |t| lanes.clone().map(move |l| (t, l, t * tile_columns + l * block + k))).filter(
+            move |&(_, _, c)| {
+                let cb = c as isize + dc;
+                c < table.columns() && cb >= 0 && (cb as usize) < table.columns()
+            },
+        )
+    };
     let (mut found, mut missing) = (None::<(u8, f32, f32, f64, usize)>, false);
-    let mut lane_rests = vec![[f32::NAN; LANES]; tiles];
-    for (t, lane_rests) in lane_rests.iter_mut().enumerate() {
-        for l in lanes.clone() {
-            let c = t * tile_columns + l * block + k;
-            let cb = c as isize + dc;
-            if c >= table.columns() || cb < 0 || cb as usize >= table.columns() {
-                continue;
-            }
-            let bar = table.get(c, r, offset);
-            match (bar, &mut found) {
-                (None, _) => missing = true,
-                (Some((kind, rest)), None) => found = Some((kind, rest, rest, f64::from(rest), 1)),
-                (Some((kind, rest)), Some(f)) => {
-                    if kind != f.0 {
-                        return OpBar::Mixed;
-                    }
-                    *f = (kind, f.1.min(rest), f.2.max(rest), f.3 + f64::from(rest), f.4 + 1);
+    for (_, _, c) in lane_columns() {
+        match (table.get_class(c, r, class), &mut found) {
+            (None, _) => missing = true,
+            (Some((kind, rest)), None) => found = Some((kind, rest, rest, f64::from(rest), 1)),
+            (Some((kind, rest)), Some(f)) => {
+                if kind != f.0 {
+                    return OpBar::Mixed;
                 }
+                *f = (kind, f.1.min(rest), f.2.max(rest), f.3 + f64::from(rest), f.4 + 1);
             }
-            // Lanes are by the bar's first end; a rotated operation seen
-            // from its lower end (Δc < 0) holds it one lane down.
-            let lane = if (k as isize + dc) < 0 { l - 1 } else { l };
-            lane_rests[lane] = bar.map_or(f32::NAN, |(_, rest)| rest);
         }
     }
     let Some((kind, lo, hi, sum, count)) = found else {
@@ -351,8 +351,16 @@ fn op_bar(
     if missing {
         OpBar::Mixed
     } else if hi - lo > LANE_REST_SPREAD * hi {
-        for rest in lane_rests.iter_mut().flatten().filter(|r| r.is_nan()) {
-            *rest = mean;
+        // Every lane's own rest length (only for shaped meshes: the common
+        // case allocates nothing). Lanes are by the bar's first end; a
+        // rotated operation seen from its lower end (Δc < 0) holds it one
+        // lane down. Lanes past the grid's edge take the mean.
+        let mut lane_rests = vec![[mean; LANES]; tiles];
+        for (t, l, c) in lane_columns() {
+            let lane = if (k as isize + dc) < 0 { l - 1 } else { l };
+            if let Some((_, rest)) = table.get_class(c, r, class) {
+                lane_rests[t][lane] = rest;
+            }
         }
         OpBar::Shaped(kind, mean, lane_rests)
     } else {
@@ -574,10 +582,19 @@ impl GridLayout {
                     // no-ops, so a pin is a write of a weight.
                     layout.ops.push(op);
                 }
-                // Bars from this row that cross into the next tile.
-                for c in 0..columns {
+                // Bars from this row that cross into the next tile: only
+                // the |Δc| columns on either side of a tile's edge can, so
+                // look at those alone, in ascending order (a seam list's
+                // order is its projection order).
+                let reach = dc.unsigned_abs();
+                let edges = (1..tile_count).map(|t| t * tile_columns);
+                let near_edges = edges.flat_map(|e| if dc > 0 { e.saturating_sub(reach)..e } else { e..e + reach });
+                for c in near_edges {
                     let cb = c as isize + dc;
-                    if !(0..columns as isize).contains(&cb) || c / tile_columns == cb as usize / tile_columns {
+                    if c >= columns
+                        || !(0..columns as isize).contains(&cb)
+                        || c / tile_columns == cb as usize / tile_columns
+                    {
                         continue;
                     }
                     if let Some((kind, rest)) = table.get(c, r, offset) {

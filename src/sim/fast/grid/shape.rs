@@ -244,7 +244,17 @@ impl BarTable {
 
     /// The kind and rest length of the bar of `offset` from cell `(c, r)`.
     pub(super) fn get(&self, c: usize, r: usize, offset: Offset) -> Option<(u8, f32)> {
-        let class = Offset::ALL.iter().position(|&o| o == offset)?;
+        self.get_class(c, r, Self::class(offset)?)
+    }
+
+    /// `offset`'s index into the table's classes (`None` for an offset
+    /// no bar can have).
+    pub(super) fn class(offset: Offset) -> Option<usize> {
+        Offset::ALL.iter().position(|&o| o == offset)
+    }
+
+    /// [`Self::get`] with the offset's class looked up once by the caller.
+    pub(super) fn get_class(&self, c: usize, r: usize, class: usize) -> Option<(u8, f32)> {
         let at = (r * self.columns + c) * CLASSES + class;
         let rest = self.rest[at];
         (!rest.is_nan()).then(|| (self.kind[at], self.class_rest[class].unwrap_or(rest)))
