@@ -585,18 +585,18 @@ impl GridLayout {
                 // Bars from this row that cross into the next tile: only
                 // the |Δc| columns on either side of a tile's edge can, so
                 // look at those alone, in ascending order (a seam list's
-                // order is its projection order).
+                // order is its projection order). |Δc| ≤ 2 is below a
+                // tile's width (≥ 8 columns), so each such bar's ends lie
+                // in the two tiles beside the edge.
                 let reach = dc.unsigned_abs();
                 let edges = (1..tile_count).map(|t| t * tile_columns);
                 let near_edges = edges.flat_map(|e| if dc > 0 { e.saturating_sub(reach)..e } else { e..e + reach });
                 for c in near_edges {
                     let cb = c as isize + dc;
-                    if c >= columns
-                        || !(0..columns as isize).contains(&cb)
-                        || c / tile_columns == cb as usize / tile_columns
-                    {
+                    if c >= columns || !(0..columns as isize).contains(&cb) {
                         continue;
                     }
+                    debug_assert_ne!(c / tile_columns, cb as usize / tile_columns, "a seam bar within one tile");
                     if let Some((kind, rest)) = table.get(c, r, offset) {
                         let (a, b) = (locate(c, r), locate(cb as usize, r + dr));
                         // Stored with the lower tile first (A bars point left).
