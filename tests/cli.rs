@@ -84,10 +84,16 @@ fn run_writes_the_state_and_the_trace() {
 /// level `level` (`DRAPE_SIMD`), and the line `drape run` prints about the
 /// level.
 fn scene_state_at_level(dir: &Path, scene: &str, level: &str, steps: u32) -> (Vec<[f64; 3]>, String) {
-    let out = dir.join(format!("state-{scene}-{level}-{steps}.json"));
+    scene_state_with(dir, scene, &[("DRAPE_SIMD", level)], steps)
+}
+
+/// [`scene_state_at_level`] with any environment variables `env`.
+fn scene_state_with(dir: &Path, scene: &str, env: &[(&str, &str)], steps: u32) -> (Vec<[f64; 3]>, String) {
+    let tag: Vec<String> = env.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    let out = dir.join(format!("state-{scene}-{}-{steps}.json", tag.join("-")));
     let o = Command::new(env!("CARGO_BIN_EXE_drape"))
         .args(["run", "--scene", scene, "--steps", &steps.to_string(), "--out", path(&out), "-q"])
-        .env("DRAPE_SIMD", level)
+        .envs(env.iter().copied())
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", text(&o.stderr));
@@ -139,6 +145,29 @@ fn every_simd_level_gives_the_same_bits() {
         let apart = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
         let worst = portable.iter().zip(&fused).map(|(p, q)| apart(p, q)).fold(0.0, f64::max);
         assert!(worst <= 1e-6, "{scene}: after one step the portable level is {worst} m from the fused one");
+    }
+}
+
+#[test]
+fn drape_simd_width_picks_the_avx512_levels_vectors_and_keeps_the_bits() {
+    // DRAPE_SIMD_WIDTH=512|256 picks the AVX-512 level's build of the
+    // kernels the compiler vectorises (drape::sim::fast::simd::width); both
+    // give the bits of the default, on `pile` (a grid of two tiles, the
+    // ground and self-collision). Below AVX-512 the width is not printed:
+    // the level has 256-bit vectors only.
+    let dir = scratch("simd_width");
+    let (default, line) = scene_state_with(&dir, "pile", &[], 40);
+    let avx512 = line.contains("avx512");
+    for width in ["512", "256", "1024"] {
+        let (positions, line) = scene_state_with(&dir, "pile", &[("DRAPE_SIMD_WIDTH", width)], 40);
+        assert!(positions == default, "pile at DRAPE_SIMD_WIDTH={width} differs from the default");
+        if !avx512 {
+            assert!(!line.contains("-bit vectors"), "{line}");
+        } else if width == "1024" {
+            assert!(line.contains("DRAPE_SIMD_WIDTH=1024 is not a width (512 or 256)"), "{line}");
+        } else {
+            assert!(line.contains(&format!("{width}-bit vectors (DRAPE_SIMD_WIDTH={width})")), "{line}");
+        }
     }
 }
 

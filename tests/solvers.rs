@@ -289,3 +289,43 @@ fn a_quad_grid_from_an_obj_file_runs_in_the_lanes() {
     let (f, r) = (fast.strain().rms, reference.strain().rms);
     assert!(f > 0.0 && (0.8..1.25).contains(&(f / r)), "RMS strain fast {f}, reference {r}");
 }
+
+#[test]
+fn both_vector_widths_of_the_avx512_level_give_the_same_bits() {
+    // At the AVX-512 level, the kernels the compiler vectorises (the grid's
+    // tile sweeps and seams, the collide phases, self-collision's search)
+    // run either their AVX-512 build, free to use 512-bit vectors, or their
+    // AVX2 build (256 bits: an Intel CPU's default,
+    // `drape::sim::fast::simd::width`). Each lane computes what one `f32`
+    // at a time does, so both give the same bits. Two bundled scenes, so
+    // that every such kernel runs: `pile` (a grid of two tiles and the seam
+    // between them, dropped onto the ground with self-collision on) and
+    // `tablecloth` (no grid: the coloured path and its collide phase, on
+    // its table).
+    use drape::sim::fast::simd::{self, SimdLevel, VectorWidth};
+    if simd::level() < SimdLevel::Avx512 {
+        eprintln!("the level is {:?}: it has one width only, nothing to compare", simd::level());
+        return;
+    }
+    let before = simd::width();
+    for (name, steps) in [("pile", 40), ("tablecloth", 40)] {
+        let scene = drape::scene::load(name).unwrap();
+        let start = scene.simulation().unwrap();
+        assert!(start.solver_description().contains(if name == "pile" { "2 tiles" } else { "coloured" }));
+        let bits = |width: VectorWidth| {
+            // The width is the process's, and other tests run beside this
+            // one: both widths give the same bits, so they cannot see the
+            // switch.
+            simd::force_width(width);
+            assert!(simd::describe().contains(&format!("{}-bit vectors", width.name())), "{}", simd::describe());
+            let mut sim = start.clone();
+            sim.advance(steps).unwrap();
+            sim.positions().iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>()
+        };
+        let wide = bits(VectorWidth::Bits512);
+        assert_eq!(wide, bits(VectorWidth::Bits256), "{name}: the two widths differ");
+        let moved = start.positions().iter().zip(wide.chunks(3)).filter(|(p, b)| p.x.to_bits() != b[0]).count();
+        assert!(moved > start.positions().len() / 2, "{name}: {moved} particles moved");
+    }
+    simd::force_width(before);
+}

@@ -11,7 +11,27 @@
 //! ```
 //!
 //! A level the CPU lacks falls back to the best it has, and an unknown value
-//! to the default; [`note`] says so (`drape run` prints it). The kernels are
+//! to the default; [`note`] says so (`drape run` prints it).
+//!
+//! At the AVX-512 level, the kernels the compiler vectorises (`dispatch!`:
+//! the grid's sweeps and collide phase, the coloured path's collide phase,
+//! self-collision's search) take 512-bit vectors or stay at 256 bits
+//! ([`VectorWidth`]): 512 on AMD (Zen 4 runs a 512-bit instruction as two
+//! 256-bit halves at full clock, and the 512-bit build of the 256 × 256
+//! grid's step was 4 % quicker there), 256 on Intel, whose cores shut a
+//! vector port while 512-bit instructions are in flight (and older ones
+//! lower their clock): on an Emerald Rapids Xeon the 512-bit build made
+//! the 256 × 256 grid's step 23–30 % slower. LLVM tunes its own Intel
+//! targets the same way (`prefer-256-bit`). The environment variable
+//! `DRAPE_SIMD_WIDTH` forces one:
+//!
+//! ```text
+//! DRAPE_SIMD_WIDTH=512 | 256
+//! ```
+//!
+//! The coloured path's octets are written for 256-bit registers at both
+//! levels (AVX-512 gives them 32 of them), and the two widths compute the
+//! same bits. The kernels are
 //! the same source at every level (the `dispatch!` macro): only the instructions
 //! the compiler may use differ, so every level computes the same bits
 //! (the tests check AVX2 against portable), with one exception: the bar
@@ -77,6 +97,57 @@ impl SimdLevel {
     }
 }
 
+/// The widest vectors the AVX-512 level's compiled kernels use (module
+/// docs). Below AVX-512 it is 256 bits whatever this says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VectorWidth {
+    /// The AVX2 + FMA build of each `dispatch!` kernel.
+    Bits256,
+    /// The AVX-512 F + VL build, free to use 512-bit vectors.
+    Bits512,
+}
+
+impl VectorWidth {
+    /// The value `DRAPE_SIMD_WIDTH` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            VectorWidth::Bits256 => "256",
+            VectorWidth::Bits512 => "512",
+        }
+    }
+
+    /// The width for this CPU: 256 bits on an Intel CPU, else 512.
+    pub fn for_this_cpu() -> VectorWidth {
+        if cpu_is_intel() { VectorWidth::Bits256 } else { VectorWidth::Bits512 }
+    }
+}
+
+/// Whether the CPU's vendor string is Intel's (`GenuineIntel`).
+fn cpu_is_intel() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let id = std::arch::x86_64::__cpuid(0);
+        let vendor = [id.ebx, id.edx, id.ecx].map(u32::to_le_bytes).concat();
+        vendor == b"GenuineIntel"
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// The width `DRAPE_SIMD_WIDTH` asks for on a CPU whose default is
+/// `default`, and a note when the request is not a width.
+pub fn choose_width(request: Option<&str>, default: VectorWidth) -> (VectorWidth, Option<String>) {
+    let Some(text) = request.map(str::trim).filter(|t| !t.is_empty()) else { return (default, None) };
+    match text {
+        "256" => (VectorWidth::Bits256, None),
+        "512" => (VectorWidth::Bits512, None),
+        _ => {
+            let note = format!("DRAPE_SIMD_WIDTH={text} is not a width (512 or 256): using {}", default.name());
+            (default, Some(note))
+        }
+    }
+}
+
 /// The level `DRAPE_SIMD` asks for on a CPU whose best is `best`, and a
 /// note when the request could not be honoured.
 pub fn choose(request: Option<&str>, best: SimdLevel) -> (SimdLevel, Option<String>) {
@@ -107,6 +178,38 @@ fn chosen() -> &'static (SimdLevel, Option<String>, Option<String>) {
     })
 }
 
+/// The width, the note, and `DRAPE_SIMD_WIDTH` as read (once).
+fn chosen_width() -> &'static (VectorWidth, Option<String>, Option<String>) {
+    static CHOSEN: OnceLock<(VectorWidth, Option<String>, Option<String>)> = OnceLock::new();
+    CHOSEN.get_or_init(|| {
+        let request = std::env::var("DRAPE_SIMD_WIDTH").ok().map(|v| v.trim().to_string()).filter(|v| !v.is_empty());
+        let (width, note) = choose_width(request.as_deref(), VectorWidth::for_this_cpu());
+        (width, note, request)
+    })
+}
+
+/// A width set by [`force_width`]: 0 when none is, 1 for 256 bits, 2 for
+/// 512.
+static FORCED_WIDTH: AtomicU8 = AtomicU8::new(0);
+
+/// The widest vectors of the AVX-512 level's compiled kernels: the one
+/// [`force_width`] set last, else the one `DRAPE_SIMD_WIDTH` asked for,
+/// else [`VectorWidth::for_this_cpu`].
+pub fn width() -> VectorWidth {
+    match FORCED_WIDTH.load(Ordering::Relaxed) {
+        1 => VectorWidth::Bits256,
+        2 => VectorWidth::Bits512,
+        _ => chosen_width().0,
+    }
+}
+
+/// Runs the AVX-512 level's compiled kernels at `width` from now on, in
+/// every thread of this process (as [`force`] for the level: for comparing
+/// both in one process; the same bits either way).
+pub fn force_width(width: VectorWidth) {
+    FORCED_WIDTH.store(if width == VectorWidth::Bits256 { 1 } else { 2 }, Ordering::Relaxed);
+}
+
 /// A level set by [`force`]: 0 when none is, else 1 + the level's
 /// discriminant (its place in [`SimdLevel::ALL`]).
 static FORCED: AtomicU8 = AtomicU8::new(0);
@@ -135,9 +238,10 @@ pub fn force(requested: SimdLevel) -> SimdLevel {
     level
 }
 
-/// Why the level is not the one `DRAPE_SIMD` asked for, if it is not.
+/// Why the level is not the one `DRAPE_SIMD` asked for, if it is not
+/// (else why the width is not the one `DRAPE_SIMD_WIDTH` asked for).
 pub fn note() -> Option<&'static str> {
-    chosen().1.as_deref()
+    chosen().1.as_deref().or(chosen_width().1.as_deref())
 }
 
 /// The level and where it came from, as `drape run` prints it.
@@ -152,7 +256,21 @@ pub fn describe() -> String {
         (None, Some(request)) => format!("DRAPE_SIMD={request}"),
         (None, None) => "the best this CPU has; DRAPE_SIMD=avx512|avx2|portable forces one".to_string(),
     };
-    format!("{} ({why})", level.name())
+    if level < SimdLevel::Avx512 {
+        return format!("{} ({why})", level.name());
+    }
+    let (chosen_width, width_note, width_request) = chosen_width();
+    let width = width();
+    let width_why = match (width_note, width_request) {
+        _ if width != *chosen_width => "forced in this process".to_string(),
+        (Some(note), _) => note.clone(),
+        (None, Some(request)) => format!("DRAPE_SIMD_WIDTH={request}"),
+        (None, None) if width == VectorWidth::Bits256 => {
+            "an Intel CPU's; DRAPE_SIMD_WIDTH=512|256 forces one".to_string()
+        }
+        (None, None) => "this CPU's; DRAPE_SIMD_WIDTH=512|256 forces one".to_string(),
+    };
+    format!("{} ({why}), {}-bit vectors ({width_why})", level.name(), width.name())
 }
 
 /// Whether the portable level fuses the projection's multiply-adds (the
@@ -167,8 +285,9 @@ pub const PORTABLE_FUSED: bool = cfg!(any(target_feature = "fma", target_arch = 
 
 /// Defines `fn $name(args) -> ret` that runs `$body(args)` (an
 /// `#[inline(always)]` function) compiled for the chosen [`level`]: the
-/// `best` targets (multiversion picks the best the CPU has among them), AVX2
-/// and FMA alone, or the portable baseline.
+/// `best` targets (multiversion picks the best the CPU has among them) at
+/// AVX-512 with 512-bit vectors ([`width`]), AVX2 and FMA alone at AVX2 or
+/// at AVX-512 with 256-bit vectors, or the portable baseline.
 ///
 /// With `= $body::<fused>`, `$body` takes a `const FUSED: bool`: `true` at
 /// the AVX2 and AVX-512 levels (both have FMA), [`PORTABLE_FUSED`] at the
@@ -209,7 +328,10 @@ macro_rules! dispatch {
                 $($fast)+($($arg),*)
             }
             match $crate::sim::fast::simd::level() {
-                $crate::sim::fast::simd::SimdLevel::Avx512 => best($($arg),*),
+                $crate::sim::fast::simd::SimdLevel::Avx512 => match $crate::sim::fast::simd::width() {
+                    $crate::sim::fast::simd::VectorWidth::Bits512 => best($($arg),*),
+                    $crate::sim::fast::simd::VectorWidth::Bits256 => avx2($($arg),*),
+                },
                 $crate::sim::fast::simd::SimdLevel::Avx2 => avx2($($arg),*),
                 $crate::sim::fast::simd::SimdLevel::Portable => $($portable)+($($arg),*),
             }
@@ -235,6 +357,31 @@ mod tests {
         let (level, note) = choose(Some("sse9"), Avx2);
         assert_eq!(level, Avx2);
         assert!(note.unwrap().contains("not a level"));
+    }
+
+    #[test]
+    fn the_width_request_is_honoured_and_a_wrong_one_says_so() {
+        use VectorWidth::*;
+        assert_eq!(choose_width(None, Bits256), (Bits256, None));
+        assert_eq!(choose_width(Some(" 512 "), Bits256), (Bits512, None));
+        assert_eq!(choose_width(Some("256"), Bits512), (Bits256, None));
+        let (width, note) = choose_width(Some("1024"), Bits512);
+        assert_eq!(width, Bits512);
+        assert!(note.unwrap().contains("not a width (512 or 256)"));
+    }
+
+    #[test]
+    #[cfg(all(target_arch = "x86_64", target_os = "linux"))]
+    fn the_vendor_is_read_as_the_kernel_reads_it() {
+        // `cpuid` leaf 0 spells the vendor in ebx, edx, ecx; Linux prints
+        // the same twelve bytes as `vendor_id` in /proc/cpuinfo.
+        let Ok(cpuinfo) = std::fs::read_to_string("/proc/cpuinfo") else { return };
+        let vendor =
+            cpuinfo.lines().find_map(|l| l.strip_prefix("vendor_id")).map(|v| v.trim_start_matches([' ', '\t', ':']));
+        let Some(vendor) = vendor else { return };
+        assert_eq!(cpu_is_intel(), vendor.trim() == "GenuineIntel", "vendor_id {vendor}");
+        let expected = if vendor.trim() == "GenuineIntel" { VectorWidth::Bits256 } else { VectorWidth::Bits512 };
+        assert_eq!(VectorWidth::for_this_cpu(), expected);
     }
 
     #[test]

@@ -17,8 +17,10 @@ dispatch! {
     /// (two `vinsertf64x4` an operation), which Zen 4 runs as two halves;
     /// the AVX2 code took the seed's step from 59.4–67.1 to 54.6–55.1 µs on
     /// host D (alternated runs). The tiles' own sweep ([`sweep_tile`]) keeps
-    /// AVX-512: there it was the faster (256 × 256 on one thread 6.05–6.17
-    /// against 6.34–6.43 ms).
+    /// AVX-512 on AMD: there it was the faster (256 × 256 on one thread
+    /// 6.05–6.17 against 6.34–6.43 ms); on Intel, 512-bit vectors made it
+    /// the slower, and the AVX-512 level runs its AVX2 build
+    /// ([`crate::sim::fast::simd::VectorWidth`]).
     pub(super) fn sweep_tile_pipelined(tile: &mut Tile, sweep: &Sweep, row_starts: &[u32], sweeps: u32)
         = sweep_tile_pipelined_body::<fused>, best = ["x86_64+avx2+fma"]
 }
