@@ -314,7 +314,14 @@ pub(crate) fn relax_pair<T: Real, const XPBD: bool, const FUSED: bool>(
 #[inline(always)]
 pub(crate) fn bar_square<T: Real, const FUSED: bool>(a: &Point<T>, b: &Point<T>) -> (Point<T>, T) {
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    (d, mul_add::<T, FUSED>(d[2], d[2], mul_add::<T, FUSED>(d[1], d[1], d[0] * d[0])))
+    (d, length_squared::<T, FUSED>(&d))
+}
+
+/// d·d, as [`bar_square`] takes it (z² + (y² + x²), each sum fused with
+/// `FUSED`).
+#[inline(always)]
+pub(crate) fn length_squared<T: Real, const FUSED: bool>(d: &Point<T>) -> T {
+    mul_add::<T, FUSED>(d[2], d[2], mul_add::<T, FUSED>(d[1], d[1], d[0] * d[0]))
 }
 
 /// The second half of [`relax_pair`]: the correction, from the bar's
@@ -334,6 +341,28 @@ pub(crate) fn correct_pair<T: Real, const XPBD: bool, const FUSED: bool>(
     beta: T,
     omega: T,
 ) -> T {
+    let (ca, cb, violation) = pair_shares::<T, XPBD, FUSED>(wa, wb, square, rest, mu, beta, omega);
+    for k in 0..3 {
+        a[k] = mul_add::<T, FUSED>(ca, d[k], a[k]);
+        b[k] = mul_sub_from::<T, FUSED>(cb, d[k], b[k]);
+    }
+    violation
+}
+
+/// [`correct_pair`] less its moves: the multiples `(ca, cb)` of d that end
+/// a gains and end b loses (x_a += ca d, x_b −= cb d), and |ℓ − L|; `mu`
+/// is updated with `XPBD`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pair_shares<T: Real, const XPBD: bool, const FUSED: bool>(
+    wa: T,
+    wb: T,
+    square: T,
+    rest: T,
+    mu: &mut T,
+    beta: T,
+    omega: T,
+) -> (T, T, T) {
     let weight = wa + wb + beta;
     // Both ends weigh 0 (fixed, padding): divide by 1 and move nothing.
     let weight = T::if_moving(weight, weight, T::splat(1.0));
@@ -347,15 +376,11 @@ pub(crate) fn correct_pair<T: Real, const XPBD: bool, const FUSED: bool>(
     let aim = if XPBD { rest - *mu } else { rest };
     let scaled = mul_sub_from::<T, FUSED>(aim, len, square);
     let (ca, cb) = ((wa * per_square) * scaled, (wb * per_square) * scaled);
-    for k in 0..3 {
-        a[k] = mul_add::<T, FUSED>(ca, d[k], a[k]);
-        b[k] = mul_sub_from::<T, FUSED>(cb, d[k], b[k]);
-    }
     if XPBD {
         // β Δλ = −β ω (C + βλ) / (w_a + w_b + β) = −β c ℓ.
         *mu = *mu - beta * (scaled * per_square) * len;
     }
-    (len - rest).abs()
+    (ca, cb, (len - rest).abs())
 }
 
 /// The equal-mass form of [`relax_pair`], with the shares precomputed (the

@@ -20,6 +20,7 @@ mod blocks;
 mod collide;
 mod colouring;
 mod graph;
+mod octets;
 mod order;
 mod pairs;
 mod sweep;

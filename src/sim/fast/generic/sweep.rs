@@ -3,9 +3,10 @@
 //!
 //! Bars of one colour share no particle, so their projections are
 //! independent and their order inside the colour does not change a bit.
-//! Eight of them are projected by one call of [`relax_pair`] on lanes: the
+//! Eight of them are projected at once in lanes ([`super::octets`]): the
 //! eight bars' ends are loaded (a particle is 16 bytes, x y z w, one load
-//! each) and transposed into lanes, projected, transposed back and stored.
+//! each), brought into lanes, projected as [`relax_pair`] projects one, and
+//! stored.
 //! The kernel computes in each lane exactly what it computes for one `f32`,
 //! so the lanes give the bits of one bar at a time (a test checks this). The
 //! colour's last `n mod 8` bars, and the last group of bars that found no
@@ -35,8 +36,11 @@
 //! octet's instructions are shuffles (the rows' transposes: 32 of some
 //! 100 in an octet paired at both ends, counted in the source); an extra
 //! shuffle or an extra add an octet costs about the same, half a cycle, so
-//! the octet is bound by its instruction count, not by one kind of
-//! instruction.
+//! on that Zen 4 the octet is bound by its instruction count, not by one
+//! kind of instruction. On an Intel Xeon the shuffles are what it waits
+//! on, and the AVX-512 build moves the octet in row form, with 19 of them
+//! in place of 32 (an eighth cut: tablecloth −29 %, disc-183 −20 % on one
+//! thread there; [`super::octets`]).
 //!
 //! Why lanes pay here: one bar's projection is a chain of about 60 cycles
 //! (square root, then division) and some 70 instructions, so the CPU's
@@ -51,7 +55,7 @@
 //! once, when the colouring is built (a quarter of the octet's ~230
 //! instructions had been bounds checks and index shifts), and the loop
 //! loads the next octet's ends before it finishes the last one, so those
-//! loads wait on nothing ([`avx2`]). A third (2.4 → 2.0 ns): where lanes l
+//! loads wait on nothing ([`super::octets`]). A third (2.4 → 2.0 ns): where lanes l
 //! and l + 4 hold bars from the two particles of a dimer ([`super::pairs`]),
 //! those two rows are one 32-byte load and store, not two 16-byte ones and
 //! a shuffle to join or part them.
@@ -92,9 +96,9 @@ pub(super) fn relax_pass(
         // many as the colouring's ends index (checked above).
         return unsafe {
             if simd::level() == SimdLevel::Avx512 {
-                avx512::relax_pass(particles, colouring, mu, sweep)
+                super::octets::avx512::relax_pass(particles, colouring, mu, sweep)
             } else {
-                avx2::relax_pass(particles, colouring, mu, sweep)
+                super::octets::avx2::relax_pass(particles, colouring, mu, sweep)
             }
         };
     }
@@ -132,7 +136,7 @@ pub(super) fn relax_pass(
 
 /// Projects bar `i` alone, its multiply-adds fused with `FUSED`.
 #[inline(always)]
-fn relax_one<const XPBD: bool, const FUSED: bool>(
+pub(super) fn relax_one<const XPBD: bool, const FUSED: bool>(
     particles: &mut [Particle],
     bars: &BarColumns,
     i: usize,
@@ -150,340 +154,13 @@ fn relax_one<const XPBD: bool, const FUSED: bool>(
     if sweep.tolerance > 0.0 { excess(v, wa, wb, sweep.tolerance * rest) } else { f32::NEG_INFINITY }
 }
 
-/// The AVX2 octets, software-pipelined: the loop starts octet k + 1 (loads
-/// its ends, transposes them, takes the bars' lengths) before it finishes
-/// octet k (the division, the moves, the stores). The compiler keeps the
-/// early loads and sinks the rest back next to its use, which is what pays
-/// (the loads' latency hides behind the last octet's arithmetic; forcing the
-/// square root early too spilled registers and was slower). Octets of one
-/// colour share no particle, so starting the next before the last is stored
-/// reads what the one-at-a-time order reads; a colour's last octet is
-/// finished before the next colour starts.
-///
-/// The ends are loaded and stored through raw pointers: the indices were
-/// checked once, when the colouring was built (each is below
-/// [`Colouring::particles`]), and [`super::relax_pass`] checks that the
-/// particles are that many; the bounds checks of 32 indexed loads and stores
-/// an octet were a tenth of the pass (measured in the README).
-///
-/// One source, two modules: `avx2` compiled for AVX2 + FMA, `avx512` for
-/// AVX-512 F + VL as well. The second still computes on 256-bit registers
-/// (the same instructions, so the same bits), but has 32 of them where AVX2
-/// has 16: an octet started, its ends, weights, vector and squared length
-/// (twelve registers), stays in registers across the next octet's start instead of
-/// going to the stack. Stack references in the pass 1 042 → 630, and on a
-/// Zen 4 the tablecloth's step ~4 % and disc-183's ~5–10 % shorter (both
-/// builds in one process, alternated: `docs/performance.md`).
-macro_rules! octets {
-    ($module:ident, $features:literal) => {
-        #[cfg(target_arch = "x86_64")]
-        #[allow(unsafe_code)]
-        mod $module {
-            use std::arch::x86_64::{
-                __m128, _mm_cvtsi64_si128, _mm_loadu_ps, _mm_storeu_ps, _mm256_castps256_ps128, _mm256_cvtepu8_epi32,
-                _mm256_extractf128_ps, _mm256_loadu_ps, _mm256_permutevar8x32_ps, _mm256_setr_ps, _mm256_storeu_ps,
-            };
-
-            use super::{BarColumns, Colouring, Particle, Sweep};
-            use crate::sim::fast::avx::{Avx, transpose_pairs, transpose_rows, untranspose_rows};
-            use crate::sim::fast::kernel::{LANES, Point, Real, bar_square, correct_pair, excess};
-
-            /// [`super::relax_pass`] with eight bars at a time.
-            ///
-            /// # Safety
-            /// The CPU has the features this module is compiled for (`octets!`),
-            /// and `particles.len() >= colouring.particles`.
-            #[target_feature(enable = $features)]
-            pub(super) unsafe fn relax_pass(
-                particles: &mut [Particle],
-                colouring: &Colouring,
-                mu: &mut [f32],
-                sweep: &Sweep,
-            ) -> f32 {
-                let columns = Columns::new(&colouring.bars, mu);
-                // SAFETY: the caller's promise, passed on.
-                unsafe {
-                    match (sweep.betas.iter().any(|&b| b > 0.0), sweep.tolerance > 0.0) {
-                        (true, true) => relax_colours::<true, true>(particles, colouring, columns, mu, sweep),
-                        (true, false) => relax_colours::<true, false>(particles, colouring, columns, mu, sweep),
-                        (false, true) => relax_colours::<false, true>(particles, colouring, columns, mu, sweep),
-                        (false, false) => relax_colours::<false, false>(particles, colouring, columns, mu, sweep),
-                    }
-                }
-            }
-
-            /// The bar columns and the multipliers as pointers, checked once a pass
-            /// to be as long as one another (the multipliers' pointer is taken anew
-            /// for each colour, as the particles' rows are): an octet reads eight of each without
-            /// a bounds check (the checks, the loop's iterator and the excess when
-            /// no tolerance is set were about 30 of an octet's 142 instructions).
-            #[derive(Clone, Copy)]
-            struct Columns {
-                a: *const u32,
-                b: *const u32,
-                rest: *const f32,
-                kind: *const u8,
-                mu: *mut f32,
-            }
-
-            impl Columns {
-                fn new(bars: &BarColumns, mu: &mut [f32]) -> Self {
-                    let n = mu.len();
-                    assert!(
-                        bars.a.len() == n && bars.b.len() == n && bars.rest.len() == n && bars.kind.len() == n,
-                        "the colouring's columns and multipliers differ in length"
-                    );
-                    Columns {
-                        a: bars.a.as_ptr(),
-                        b: bars.b.as_ptr(),
-                        rest: bars.rest.as_ptr(),
-                        kind: bars.kind.as_ptr(),
-                        mu: mu.as_mut_ptr(),
-                    }
-                }
-            }
-
-            /// Colour by colour, octets pipelined, then the colour's last bars one at
-            /// a time ([`super::relax_one`]).
-            ///
-            /// # Safety
-            /// As [`relax_pass`].
-            #[target_feature(enable = $features)]
-            unsafe fn relax_colours<const XPBD: bool, const TOLERANCE: bool>(
-                particles: &mut [Particle],
-                colouring: &Colouring,
-                columns: Columns,
-                mu: &mut [f32],
-                sweep: &Sweep,
-            ) -> f32 {
-                let bars = &colouring.bars;
-                let mut worst = f32::NEG_INFINITY;
-                for c in 0..colouring.ends.len() {
-                    let range = colouring.colour(c);
-                    let mut next = range.start;
-                    if c < colouring.independent {
-                        // Taken anew for each colour: the last colour's bars after
-                        // its octets went through `particles` and `mu` themselves.
-                        let rows = particles.as_mut_ptr().cast::<f32>();
-                        let cols = Columns { mu: mu.as_mut_ptr(), ..columns };
-                        let ([both, a_end, others], rest) = colouring.live(c);
-                        // SAFETY (each call): `rows` holds `colouring.particles`
-                        // rows (the caller's promise), every end of the colouring is
-                        // below that, the octets are within the columns (a colour
-                        // is), and the colouring lays out the octets paired at both
-                        // ends and at end a as `octets_of` requires.
-                        unsafe {
-                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, cols, both, sweep));
-                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, cols, a_end, sweep));
-                            worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, cols, others, sweep));
-                        }
-                        next = rest;
-                    }
-                    for (i, mu) in mu.iter_mut().enumerate().take(range.end).skip(next) {
-                        worst = worst.max(super::relax_one::<XPBD, true>(particles, bars, i, mu, sweep));
-                    }
-                }
-                worst
-            }
-
-            /// The octets `range` (of one colour, a multiple of eight bars),
-            /// pipelined. With `PA` (`PB`), each octet's lane l + 4 has as end a
-            /// (b) the row after lane l's, and each pair of rows is loaded and
-            /// stored as one 32 bytes.
-            ///
-            /// # Safety
-            /// As [`start`].
-            #[inline(always)]
-            unsafe fn octets_of<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
-                rows: *mut f32,
-                columns: Columns,
-                range: std::ops::Range<usize>,
-                sweep: &Sweep,
-            ) -> f32 {
-                let mut worst = f32::NEG_INFINITY;
-                if range.is_empty() {
-                    return worst;
-                }
-                // SAFETY (each `start` and `finish`): the caller's promise.
-                let mut pending = unsafe { start::<PA, PB>(rows, columns, range.start) };
-                let mut next = range.start + LANES;
-                while next < range.end {
-                    let started = unsafe { start::<PA, PB>(rows, columns, next) };
-                    worst = worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) });
-                    pending = started;
-                    next += LANES;
-                }
-                worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) })
-            }
-
-            /// An octet started: its first bar, its ends and weights in lanes, and
-            /// the bars' vectors d and squared lengths ℓ².
-            #[derive(Clone, Copy)]
-            struct Started {
-                first: usize,
-                a: Point<Avx>,
-                wa: Avx,
-                b: Point<Avx>,
-                wb: Avx,
-                d: Point<Avx>,
-                square: Avx,
-            }
-
-            /// Loads bars `first..first + 8`'s ends and takes their squared lengths.
-            ///
-            /// # Safety
-            /// AVX2 is available; bars `first..first + 8` are within `columns`;
-            /// every end of these bars indexes a row of `rows`; with `PA` (`PB`),
-            /// each lane l + 4's end a (b) is the row after lane l's.
-            #[inline(always)]
-            unsafe fn start<const PA: bool, const PB: bool>(
-                rows: *const f32,
-                columns: Columns,
-                first: usize,
-            ) -> Started {
-                // SAFETY: the caller's promise.
-                let (ia, ib) = unsafe { ends(columns, first) };
-                // SAFETY: the caller's promise.
-                let ((a, wa), (b, wb)) = unsafe { (gather::<PA>(rows, &ia), gather::<PB>(rows, &ib)) };
-                let (d, square) = bar_square::<Avx, true>(&a, &b);
-                Started { first, a, wa, b, wb, d, square }
-            }
-
-            /// Projects a started octet and stores its ends; returns its largest
-            /// excess (as [`super::relax_one`]).
-            ///
-            /// # Safety
-            /// As [`start`], and no particle was stored between the octet's start
-            /// and this call.
-            #[inline(always)]
-            unsafe fn finish<const XPBD: bool, const TOLERANCE: bool, const PA: bool, const PB: bool>(
-                rows: *mut f32,
-                columns: Columns,
-                started: Started,
-                sweep: &Sweep,
-            ) -> f32 {
-                let Started { first, mut a, wa, mut b, wb, d, square } = started;
-                // SAFETY: bars `first..first + 8` are within the columns (the
-                // caller's promise); AVX2 is available.
-                let rest = unsafe { Avx(_mm256_loadu_ps(columns.rest.add(first))) };
-                // Not compliant: every β is 0.
-                // SAFETY: as above.
-                let beta = if XPBD { unsafe { betas(columns.kind.add(first), sweep) } } else { Avx::splat(0.0) };
-                // SAFETY: as above.
-                let mut mu8 =
-                    if XPBD { unsafe { Avx(_mm256_loadu_ps(columns.mu.add(first))) } } else { Avx::splat(0.0) };
-                let omega = Avx::splat(sweep.omega);
-                let v = correct_pair::<Avx, XPBD, true>(&mut a, wa, &mut b, wb, d, square, rest, &mut mu8, beta, omega);
-                // SAFETY: the caller's promise.
-                unsafe {
-                    if XPBD {
-                        _mm256_storeu_ps(columns.mu.add(first), mu8.0);
-                    }
-                    let (ia, ib) = ends(columns, first);
-                    scatter::<PA>(rows, &ia, a, wa);
-                    scatter::<PB>(rows, &ib, b, wb);
-                }
-                if TOLERANCE {
-                    excess(v, wa, wb, Avx::splat(sweep.tolerance) * rest)
-                        .lanes()
-                        .into_iter()
-                        .fold(f32::NEG_INFINITY, Real::max)
-                } else {
-                    f32::NEG_INFINITY
-                }
-            }
-
-            /// β of eight bars, by kind: their eight kind bytes (at `kind`),
-            /// widened to lanes, pick from the kinds' β (`vpermps`) where eight
-            /// checked table lookups went through memory before.
-            ///
-            /// # Safety
-            /// AVX2 is available; `kind` points at eight bytes.
-            #[inline(always)]
-            unsafe fn betas(kind: *const u8, sweep: &Sweep) -> Avx {
-                // SAFETY: the caller's promise.
-                let kinds = unsafe { kind.cast::<[u8; LANES]>().read_unaligned() };
-                let [b0, b1, b2] = sweep.betas;
-                // SAFETY: AVX2 is available (the caller's promise). A kind is below
-                // `BarKind::COUNT` = 3; `vpermps` reads only the low three bits of
-                // each index, so no lane can pick outside the register.
-                unsafe {
-                    let table = _mm256_setr_ps(b0, b1, b2, 0.0, 0.0, 0.0, 0.0, 0.0);
-                    let index = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(kinds)));
-                    Avx(_mm256_permutevar8x32_ps(table, index))
-                }
-            }
-
-            /// The ends of bars `first..first + 8`.
-            ///
-            /// # Safety
-            /// Bars `first..first + 8` are within `columns`.
-            #[inline(always)]
-            unsafe fn ends(columns: Columns, first: usize) -> ([u32; LANES], [u32; LANES]) {
-                // SAFETY: the caller's promise.
-                unsafe {
-                    (
-                        columns.a.add(first).cast::<[u32; LANES]>().read_unaligned(),
-                        columns.b.add(first).cast::<[u32; LANES]>().read_unaligned(),
-                    )
-                }
-            }
-
-            /// Eight particles (x y z w each) transposed into lanes: positions and
-            /// weights. Each row takes a 16-byte load; `PAIRED`, lanes l and l + 4
-            /// (rows `index[l]` and the next) take one 32-byte load.
-            ///
-            /// # Safety
-            /// AVX2 is available; every index is a row of `rows`; `PAIRED`, each
-            /// `index[l + 4]` is the row after `index[l]`.
-            #[inline(always)]
-            unsafe fn gather<const PAIRED: bool>(rows: *const f32, index: &[u32; LANES]) -> (Point<Avx>, Avx) {
-                // SAFETY: the caller's promise (each offset is a row's first f32;
-                // paired, the next row is lane l + 4's).
-                let [x, y, z, w] = unsafe {
-                    if PAIRED {
-                        let pair = |l: usize| _mm256_loadu_ps(rows.add(index[l] as usize));
-                        transpose_pairs([pair(0), pair(1), pair(2), pair(3)])
-                    } else {
-                        let row = |l: usize| -> __m128 { _mm_loadu_ps(rows.add(index[l] as usize)) };
-                        transpose_rows([row(0), row(1), row(2), row(3), row(4), row(5), row(6), row(7)])
-                    }
-                };
-                ([x, y, z], w)
-            }
-
-            /// The inverse of [`gather`]: particle `index[l]` takes lane l.
-            ///
-            /// # Safety
-            /// As [`gather`].
-            #[inline(always)]
-            unsafe fn scatter<const PAIRED: bool>(rows: *mut f32, index: &[u32; LANES], [x, y, z]: Point<Avx>, w: Avx) {
-                // Register l holds row l in its low half and row l + 4 in its high.
-                let pairs = untranspose_rows([x, y, z, w]);
-                // SAFETY: AVX2 is available and every index is a row of `rows`
-                // (paired, the next row is lane l + 4's): the caller's promise.
-                unsafe {
-                    for (l, pair) in pairs.into_iter().enumerate() {
-                        if PAIRED {
-                            _mm256_storeu_ps(rows.add(index[l] as usize), pair);
-                        } else {
-                            _mm_storeu_ps(rows.add(index[l] as usize), _mm256_castps256_ps128(pair));
-                            _mm_storeu_ps(rows.add(index[l + 4] as usize), _mm256_extractf128_ps::<1>(pair));
-                        }
-                    }
-                }
-            }
-        }
-    };
-}
-octets!(avx2, "avx2,fma");
-octets!(avx512, "avx2,fma,avx512f,avx512vl");
-
 #[cfg(test)]
 mod tests {
     use glam::Vec3;
 
     use super::super::GenericLayout;
+    #[cfg(target_arch = "x86_64")]
+    use super::super::octets::{avx2, avx512};
     use super::*;
     use crate::sim::mesh::ClothMesh;
 
@@ -508,9 +185,11 @@ mod tests {
         (positions.iter().map(|p| *p * 1.03).collect(), mesh.bars().to_vec())
     }
 
-    /// Positions and multipliers, as bits.
+    /// Positions, weights and multipliers, as bits (the row form moves
+    /// whole rows, weights included: they must come back unchanged).
     fn bits(layout: &GenericLayout) -> Vec<u32> {
-        let positions = layout.particles.iter().flat_map(|p| p.position.map(f32::to_bits));
+        let positions =
+            layout.particles.iter().flat_map(|p| [p.position.map(f32::to_bits), [p.weight.to_bits(); 3]]).flatten();
         positions.chain(layout.bars.blocks[0].multipliers.iter().map(|m| m.to_bits())).collect()
     }
 
