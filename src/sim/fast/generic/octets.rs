@@ -59,18 +59,20 @@ use super::sweep::{Sweep, relax_one};
 ///
 /// The ends are loaded and stored through raw pointers: the indices were
 /// checked once, when the colouring was built (each is below
-/// [`Colouring::particles`]), and [`super::relax_pass`] checks that the
+/// [`Colouring::particles`]), and [`super::sweep::relax_pass`] checks that the
 /// particles are that many; the bounds checks of 32 indexed loads and stores
 /// an octet were a tenth of the pass (measured in the README).
 ///
 /// One source, two modules: `avx2` compiled for AVX2 + FMA, `avx512` for
 /// AVX-512 F + VL as well. The second still computes on 256-bit registers
-/// (the same instructions, so the same bits), but has 32 of them where AVX2
-/// has 16: an octet started, its ends, weights, vector and squared length
-/// (twelve registers), stays in registers across the next octet's start instead of
-/// going to the stack. Stack references in the pass 1 042 → 630, and on a
-/// Zen 4 the tablecloth's step ~4 % and disc-183's ~5–10 % shorter (both
-/// builds in one process, alternated: `docs/performance.md`).
+/// (the same bits), but has 32 of them where AVX2 has 16: an octet started
+/// (twelve registers transposed, eleven in row form) stays in registers
+/// across the next octet's start instead of going to the stack. Stack
+/// references in the pass 1 042 → 630, and on a Zen 4 the tablecloth's step
+/// ~4 % and disc-183's ~5–10 % shorter (both builds in one process,
+/// alternated: `docs/performance.md`). With `$row_form` the octets move in
+/// row form (module docs): the `avx512` build, which has the registers for
+/// it.
 macro_rules! octets {
     ($module:ident, $features:literal, $row_form:literal) => {
         #[cfg(target_arch = "x86_64")]
@@ -85,15 +87,16 @@ macro_rules! octets {
             };
 
             use super::{BarColumns, Colouring, Particle, Sweep, relax_one};
-
-            /// Whether the octets are moved in row form (module docs).
-            const ROW_FORM: bool = $row_form;
             use crate::sim::fast::avx::{Avx, transpose_pairs, untranspose_rows};
             use crate::sim::fast::kernel::{
                 LANES, Point, Real, bar_square, correct_pair, excess, length_squared, pair_shares,
             };
 
-            /// [`super::super::sweep::relax_pass`] with eight bars at a time.
+            /// Whether the octets move in row form (module docs).
+            const ROW_FORM: bool = $row_form;
+
+            /// [`crate::sim::fast::generic::sweep::relax_pass`] with eight bars
+            /// at a time.
             ///
             /// # Safety
             /// The CPU has the features this module is compiled for (`octets!`),
@@ -209,6 +212,12 @@ macro_rules! octets {
                 if range.is_empty() {
                     return worst;
                 }
+                // The same loop twice, not one function taking `start` and
+                // `finish` as closures: closures handed to another function were
+                // not inlined into the `target_feature` code (as with
+                // `array::map` in `load_rows`), and their calls out of line made
+                // the pass fifty times slower (measured). Closures called where
+                // they are defined are inlined.
                 if ROW_FORM {
                     // SAFETY (each `start_rows` and `finish_rows`): the caller's promise.
                     let mut pending = unsafe { start_rows::<PA, PB>(rows, columns, range.start) };
@@ -333,9 +342,9 @@ macro_rules! octets {
             /// `index[l + 4]` is the row after `index[l]`.
             #[inline(always)]
             unsafe fn load_rows<const PAIRED: bool>(rows: *const f32, index: &[u32; LANES]) -> [__m256; 4] {
-                // Written out, not `[0, 1, 2, 3].map(..)`: the closure of a `map`
-                // was not inlined into the AVX-512 build, and its out-of-line
-                // calls made the pass eight times slower (measured).
+                // Written out, not `[0, 1, 2, 3].map(..)`: the closure handed to
+                // `map` was not inlined into the AVX-512 build, and its calls out
+                // of line made the pass eight times slower (measured).
                 // SAFETY: the caller's promise (each offset is a row's first f32;
                 // paired, the next row is lane l + 4's).
                 unsafe {
