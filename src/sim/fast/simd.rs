@@ -21,7 +21,8 @@
 //! grid's step was 4 % quicker there), 256 on Intel, whose cores shut a
 //! vector port while 512-bit instructions are in flight (and older ones
 //! lower their clock): on an Emerald Rapids Xeon the 512-bit build made
-//! the 256 × 256 grid's step 23–30 % slower. LLVM tunes its own Intel
+//! the 256 × 256 grid's step 29–38 % longer on one thread (the 256-bit
+//! build 23–27 % quicker). LLVM tunes its own Intel
 //! targets the same way (`prefer-256-bit`). The environment variable
 //! `DRAPE_SIMD_WIDTH` forces one:
 //!
