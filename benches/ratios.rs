@@ -100,8 +100,7 @@ fn main() {
         [SimdLevel::Avx512, SimdLevel::Avx2].into_iter().filter(|&l| l <= SimdLevel::best_available()).collect();
     let levels = if levels.is_empty() { vec![SimdLevel::Portable] } else { levels };
     let before = simd::level();
-    let before_width = simd::width();
-    DEFAULT_WIDTH.get_or_init(|| before_width);
+    let before_width = default_width();
     println!(
         "# Ratios in one process on {} (best level {}): {} rounds, windows of {} ms; levels {}; {} threads in the global pool",
         cpu_name(),
@@ -124,14 +123,18 @@ fn main() {
 }
 
 /// The width the runs take unless they ask for another: the process's
-/// (`DRAPE_SIMD_WIDTH`, else the CPU's default), read before any is forced.
-static DEFAULT_WIDTH: std::sync::OnceLock<VectorWidth> = std::sync::OnceLock::new();
+/// (`DRAPE_SIMD_WIDTH`, else the CPU's default), read once, before any is
+/// forced (`main` reads it first).
+fn default_width() -> VectorWidth {
+    static DEFAULT: std::sync::OnceLock<VectorWidth> = std::sync::OnceLock::new();
+    *DEFAULT.get_or_init(simd::width)
+}
 
 /// The AVX-512 level's other width than the default, for the grid's
 /// comparison (the width changes only the kernels the compiler vectorises:
 /// the grid's sweeps and the collide phases).
 fn other_width() -> VectorWidth {
-    match DEFAULT_WIDTH.get().copied().unwrap_or_else(VectorWidth::for_this_cpu) {
+    match default_width() {
         VectorWidth::Bits256 => VectorWidth::Bits512,
         VectorWidth::Bits512 => VectorWidth::Bits256,
     }
@@ -200,7 +203,7 @@ const SELF_MOST: f64 = 1.5;
 const AIR_MOST: f64 = 1.2;
 
 fn run(label: &str, sim: Simulation, level: Option<SimdLevel>, threads: Threads, base: usize) -> Run {
-    let width = DEFAULT_WIDTH.get().copied().unwrap_or_else(simd::width);
+    let width = default_width();
     Run { label: label.to_string(), sim, level, width, threads, base, steps: 0, per_step: Vec::new() }
 }
 
