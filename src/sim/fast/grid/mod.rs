@@ -66,6 +66,7 @@
 //! particles one by one with [`ContactStep::resolve`], the function the
 //! reference solver calls, tiles in parallel on large grids.
 
+mod ops;
 mod phases;
 mod shape;
 mod sweep;
@@ -78,16 +79,12 @@ use super::THREAD_SHARES;
 use super::kernel::{F32x8, LANES, Point, Real, Shares, Weights};
 use crate::sim::mesh::{BarKind, ClothMesh, GridShape};
 use crate::sim::tether::Tethers;
+use ops::{KIND_SHIFT, Op, Ops, ROTATED};
 
 /// Columns per block the tiling aims at; a tile holds `8 · block` columns.
 const TARGET_BLOCK: usize = 8;
 /// Grids of at least this many particles sweep tiles on the thread pool.
 pub(crate) const PARALLEL_PARTICLES: usize = 16_384;
-/// Marks an operation whose far slot is rotated by one lane (in `Op::b`).
-const ROTATED: u32 = 1 << 31;
-/// The bar kind of an operation ([`BarKind::index`]) sits in the top two
-/// bits of `Op::a`.
-const KIND_SHIFT: u32 = 30;
 /// Bar kinds with their own shares and compliance.
 const KINDS: usize = BarKind::COUNT;
 
@@ -147,27 +144,6 @@ impl Offset {
         // Normalise so the second particle is below, or right on the same row.
         let (dc, dr) = if dr < 0 || (dr == 0 && dc < 0) { (-dc, -dr) } else { (dc, dr) };
         Offset::ALL.into_iter().find(|o| o.delta() == (dc, dr as usize))
-    }
-}
-
-/// One 8-bar operation: slots `a` (below its kind bits) and `b & !ROTATED`
-/// of a tile.
-#[derive(Clone, Copy, Debug)]
-struct Op {
-    a: u32,
-    b: u32,
-    rest: f32,
-}
-
-impl Op {
-    fn slots(self) -> (usize, usize) {
-        ((self.a & ((1 << KIND_SHIFT) - 1)) as usize, (self.b & !ROTATED) as usize)
-    }
-    fn rotated(self) -> bool {
-        self.b & ROTATED != 0
-    }
-    fn kind(self) -> usize {
-        (self.a >> KIND_SHIFT) as usize
     }
 }
 
@@ -424,7 +400,7 @@ impl Orientation {
 pub(crate) struct GridLayout {
     block: usize,
     tiles: Vec<Tile>,
-    ops: Vec<Op>,
+    ops: Ops,
     /// `ops[row_starts[r]..row_starts[r + 1]]` are the bars starting in row r.
     row_starts: Vec<u32>,
     /// Scene particle index → location.
@@ -507,7 +483,7 @@ impl GridLayout {
         let mut layout = GridLayout {
             block,
             tiles: vec![empty; tile_count],
-            ops: Vec::new(),
+            ops: Ops::default(),
             row_starts: Vec::with_capacity(rows + 1),
             locations,
             orientation,
@@ -528,8 +504,9 @@ impl GridLayout {
         let tile_columns = LANES * block;
         // Each operation's rest lengths by tile, when they differ by lane.
         let mut lane_rests: Vec<Option<Vec<[f32; LANES]>>> = Vec::new();
+        let mut ops = Vec::new();
         for r in 0..rows {
-            layout.row_starts.push(layout.ops.len() as u32);
+            layout.row_starts.push(ops.len() as u32);
             for offset in Offset::ALL {
                 let (dc, dr) = offset.delta();
                 if r + dr >= rows {
@@ -580,7 +557,7 @@ impl GridLayout {
                     };
                     // Bars between fixed particles stay, as weightless
                     // no-ops, so a pin is a write of a weight.
-                    layout.ops.push(op);
+                    ops.push(op);
                 }
                 // Bars from this row that cross into the next tile: only
                 // the |Δc| columns on either side of a tile's edge can, so
@@ -606,7 +583,8 @@ impl GridLayout {
                 }
             }
         }
-        layout.row_starts.push(layout.ops.len() as u32);
+        layout.row_starts.push(ops.len() as u32);
+        layout.ops = Ops::new(ops);
         if lane_rests.iter().any(Option::is_some) {
             for (t, tile) in layout.tiles.iter_mut().enumerate() {
                 let rest = |(op, rests): (&Op, &Option<Vec<[f32; LANES]>>)| {

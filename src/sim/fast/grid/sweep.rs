@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{Op, SeamBar, Slot, Tile};
+use super::{Op, Ops, SeamBar, Slot, Tile};
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
 use crate::sim::fast::simd::dispatch;
 
@@ -30,7 +30,7 @@ dispatch! {
 pub(super) struct Sweep<'a> {
     /// Every weight is 0 or 1: use the tiles' shares.
     pub(super) uniform: bool,
-    pub(super) ops: &'a [Op],
+    pub(super) ops: &'a Ops,
     pub(super) tolerance: f32,
     /// β of structural, bend and shear bars.
     pub(super) betas: [f32; crate::sim::BarKind::COUNT],
@@ -146,26 +146,33 @@ fn sweep_tile_body<const FUSED: bool>(tile: &mut Tile, sweep: &Sweep) -> f32 {
 }
 
 #[inline(always)]
+#[allow(unsafe_code)]
 fn sweep_ops<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
     tile: &mut Tile,
     sweep: &Sweep,
 ) -> f32 {
     let track = sweep.tolerance > 0.0;
     let mut worst = F32x8::splat(f32::NEG_INFINITY);
+    assert!(covers::<XPBD, PADDED, UNIFORM>(tile, sweep.ops), "a tile's columns are shorter than its operations need");
     let Tile { position, weight, presence, op_shares, multipliers, rests, .. } = tile;
     for (j, &op) in sweep.ops.iter().enumerate() {
-        let rest = op_rest(rests, j, op);
-        let (violation, wa, wb) = relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
-            position,
-            weight,
-            presence,
-            op_shares,
-            multipliers,
-            j,
-            op,
-            rest,
-            sweep,
-        );
+        // SAFETY: j is below the operations' count and `op` is one of them,
+        // which the tile's columns cover (asserted above).
+        let (violation, wa, wb, rest) = unsafe {
+            let rest = op_rest(rests, j, op);
+            let (violation, wa, wb) = relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
+                position,
+                weight,
+                presence,
+                op_shares,
+                multipliers,
+                j,
+                op,
+                rest,
+                sweep,
+            );
+            (violation, wa, wb, rest)
+        };
         if track {
             worst = worst.max(excess(violation, wa, wb, rest * F32x8::splat(sweep.tolerance)));
         }
@@ -202,6 +209,7 @@ fn sweep_tile_pipelined_body<const FUSED: bool>(tile: &mut Tile, sweep: &Sweep, 
 }
 
 #[inline(always)]
+#[allow(unsafe_code)]
 fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
     tile: &mut Tile,
     sweep: &Sweep,
@@ -214,6 +222,11 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
     if rows == 0 {
         return;
     }
+    let count = sweep.ops.len();
+    assert!(
+        covers::<XPBD, PADDED, UNIFORM>(tile, sweep.ops) && row_starts.iter().all(|&s| s as usize <= count),
+        "a tile's columns or the rows' starts do not match its operations"
+    );
     let Tile { position, weight, presence, op_shares, multipliers, rests, .. } = tile;
     // When each sweep in flight started (sweep k at `begun[k % DEPTH]`):
     // sweeps `oldest..started` are in flight, the oldest the furthest on.
@@ -240,18 +253,23 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
         for j in 0..longest {
             for &(start, end) in &groups[..in_flight] {
                 if start + j < end {
-                    let op = sweep.ops[start + j];
-                    relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
-                        position,
-                        weight,
-                        presence,
-                        op_shares,
-                        multipliers,
-                        start + j,
-                        op,
-                        op_rest(rests, start + j, op),
-                        sweep,
-                    );
+                    // SAFETY: start + j < end, a row's start, which is at
+                    // most the operations' count, and the tile's columns
+                    // cover the operations (both asserted above).
+                    unsafe {
+                        let op = *sweep.ops.get_unchecked(start + j);
+                        relax_op::<XPBD, PADDED, UNIFORM, FUSED>(
+                            position,
+                            weight,
+                            presence,
+                            op_shares,
+                            multipliers,
+                            start + j,
+                            op,
+                            op_rest(rests, start + j, op),
+                            sweep,
+                        );
+                    }
                 }
             }
         }
@@ -262,18 +280,49 @@ fn sweep_pipelined<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
 /// Sweeps in flight in [`sweep_tile_pipelined`].
 const PIPELINE_DEPTH: usize = 4;
 
+/// Whether a tile's columns cover its operations `ops`: `position`,
+/// `weight` and, with `PADDED`, `presence` hold every slot they name; with
+/// `UNIFORM`, `op_shares`, with `XPBD`, `multipliers`, and `rests` when it
+/// is not empty hold an entry an operation. The sweeps check it once a call
+/// and then index the columns without a check (below).
+fn covers<const XPBD: bool, const PADDED: bool, const UNIFORM: bool>(tile: &Tile, ops: &Ops) -> bool {
+    let (slots, count) = (ops.slots(), ops.len());
+    tile.position.len() >= slots
+        && tile.weight.len() >= slots
+        && (!PADDED || tile.presence.len() >= slots)
+        && (!UNIFORM || tile.op_shares.len() >= count)
+        && (!XPBD || tile.multipliers.len() >= count)
+        && (tile.rests.is_empty() || tile.rests.len() >= count)
+}
+
 /// Operation `j`'s eight rest lengths: the tile's own when its bars differ
 /// by lane ([`Tile::rests`]), else the operation's one.
+///
+/// # Safety
+/// `rests` is empty or longer than `j`.
 #[inline(always)]
-fn op_rest(rests: &[F32x8], j: usize, op: Op) -> F32x8 {
-    if rests.is_empty() { F32x8::splat(op.rest) } else { rests[j] }
+#[allow(unsafe_code)]
+unsafe fn op_rest(rests: &[F32x8], j: usize, op: Op) -> F32x8 {
+    // SAFETY: the caller's promise.
+    if rests.is_empty() { F32x8::splat(op.rest) } else { unsafe { *rests.get_unchecked(j) } }
 }
 
 /// Projects the eight bars of operation `j`. Returns the violations and the
 /// weights used (for the tolerance test).
+///
+/// The columns are indexed without bounds checks. The checks (six compares
+/// and branches an operation, with the kind's for β) were 12 of the seed's
+/// loop's 80 instructions an operation; without them the seed's step took
+/// 1–8 % less on host F (an Intel Xeon), the larger gains in its busy
+/// periods (alternated in one process).
+///
+/// # Safety
+/// `op` is one of the operations of `sweep.ops`, `j` is below their count,
+/// and the columns cover them ([`covers`], with the same `XPBD`, `PADDED`
+/// and `UNIFORM`).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
+#[allow(clippy::too_many_arguments, unsafe_code)]
+unsafe fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUSED: bool>(
     position: &mut [Slot],
     weight: &[F32x8],
     presence: &[F32x8],
@@ -285,37 +334,48 @@ fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, const FUS
     sweep: &Sweep,
 ) -> (F32x8, F32x8, F32x8) {
     let (ia, ib) = op.slots();
-    let beta = sweep.betas[op.kind()];
+    // Ops::new checked every kind against the kinds' count; not compliant,
+    // β is not read.
+    let beta = if XPBD { sweep.betas[op.kind()] } else { 0.0 };
     let mut dummy = F32x8::splat(0.0);
-    let mu = if XPBD { &mut multipliers[j] } else { &mut dummy };
+    // SAFETY (each unchecked index below): `ia` and `ib` are slots of an
+    // operation, below the columns' slots, and `j` is below the
+    // operations' count, which the columns cover (the caller's promise).
+    let mu = if XPBD { unsafe { multipliers.get_unchecked_mut(j) } } else { &mut dummy };
     if UNIFORM {
-        return relax_op_shared::<XPBD, FUSED>(position, op_shares[j], mu, op, rest, beta);
+        // SAFETY: as above.
+        return unsafe { relax_op_shared::<XPBD, FUSED>(position, *op_shares.get_unchecked(j), mu, op, rest, beta) };
     }
-    let (mut a, mut wa) = (position[ia], weight[ia]);
+    let at = |column: &[F32x8], i: usize| unsafe { *column.get_unchecked(i) };
+    let (mut a, mut wa) = (unsafe { *position.get_unchecked(ia) }, at(weight, ia));
     if !op.rotated() {
-        let (mut b, mut wb) = (position[ib], weight[ib]);
+        let (mut b, mut wb) = (unsafe { *position.get_unchecked(ib) }, at(weight, ib));
         if PADDED {
             // A bar to padding does not exist: neither end moves.
-            (wa, wb) = (wa * presence[ib], wb * presence[ia]);
+            (wa, wb) = (wa * at(presence, ib), wb * at(presence, ia));
         }
         let v = relax_lanes::<XPBD, FUSED>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
-        position[ib] = b;
-        position[ia] = a;
+        unsafe {
+            *position.get_unchecked_mut(ib) = b;
+            *position.get_unchecked_mut(ia) = a;
+        }
         (v, wa, wb)
     } else {
         // Lane l meets lane l + 1 of the far slot (the next block); lane 7's
         // partner is in the next tile (a seam bar, projected on its own), so
         // both ends' weights are zeroed there and neither moves.
-        let mut b = position[ib].map(F32x8::rotate_down);
-        let mut wb = weight[ib].rotate_down();
+        let mut b = unsafe { *position.get_unchecked(ib) }.map(F32x8::rotate_down);
+        let mut wb = at(weight, ib).rotate_down();
         if PADDED {
-            (wa, wb) = (wa * presence[ib].rotate_down(), wb * presence[ia]);
+            (wa, wb) = (wa * at(presence, ib).rotate_down(), wb * at(presence, ia));
         }
         wa.0[LANES - 1] = 0.0;
         wb.0[LANES - 1] = 0.0;
         let v = relax_lanes::<XPBD, FUSED>(&mut a, wa, &mut b, wb, rest, mu, beta, sweep.omega);
-        position[ib] = b.map(F32x8::rotate_up);
-        position[ia] = a;
+        unsafe {
+            *position.get_unchecked_mut(ib) = b.map(F32x8::rotate_up);
+            *position.get_unchecked_mut(ia) = a;
+        }
         (v, wa, wb)
     }
 }
@@ -343,8 +403,12 @@ pub(super) fn op_shares(shared: &[Weights<F32x8>], op: Op) -> OpShares {
 /// slots' shares took four, two multiplies and, rotated, their shuffles.
 /// Returns the violations and each end's share (for the tolerance test,
 /// which only asks whether a bar can move).
+///
+/// # Safety
+/// `op`'s slots are below `position`'s length.
 #[inline(always)]
-fn relax_op_shared<const XPBD: bool, const FUSED: bool>(
+#[allow(unsafe_code)]
+unsafe fn relax_op_shared<const XPBD: bool, const FUSED: bool>(
     position: &mut [Slot],
     [sa, sb]: OpShares,
     mu: &mut F32x8,
@@ -353,20 +417,22 @@ fn relax_op_shared<const XPBD: bool, const FUSED: bool>(
     beta: f32,
 ) -> (F32x8, F32x8, F32x8) {
     let (ia, ib) = op.slots();
-    let mut a = position[ia];
+    // SAFETY (each unchecked index): `ia` and `ib` are below `position`'s
+    // length (the caller's promise).
+    let mut a = unsafe { *position.get_unchecked(ia) };
     let v = if !op.rotated() {
-        let mut b = position[ib];
+        let mut b = unsafe { *position.get_unchecked(ib) };
         let v = shared_lanes::<XPBD, FUSED>(&mut a, sa, &mut b, sb, rest, mu, beta);
-        position[ib] = b;
+        unsafe { *position.get_unchecked_mut(ib) = b };
         v
     } else {
         // Lane l meets lane l + 1 of the far slot (the next block).
-        let mut b = position[ib].map(F32x8::rotate_down);
+        let mut b = unsafe { *position.get_unchecked(ib) }.map(F32x8::rotate_down);
         let v = shared_lanes::<XPBD, FUSED>(&mut a, sa, &mut b, sb, rest, mu, beta);
-        position[ib] = b.map(F32x8::rotate_up);
+        unsafe { *position.get_unchecked_mut(ib) = b.map(F32x8::rotate_up) };
         v
     };
-    position[ia] = a;
+    unsafe { *position.get_unchecked_mut(ia) = a };
     (v, sa, sb)
 }
 

@@ -18,7 +18,7 @@ impl GridLayout {
         let mut order = Vec::new();
         let count = self.tiles.len() as u32;
         for t in (0..count).step_by(2).chain((1..count).step_by(2)) {
-            for op in &self.ops {
+            for op in self.ops.iter() {
                 let (sa, sb) = op.slots();
                 for l in 0..LANES as u8 {
                     let lb = if op.rotated() { l + 1 } else { l };
@@ -384,4 +384,48 @@ fn weights_back_to_0_and_1_return_to_the_shares_at_the_next_relaxation() {
     step(&mut never, &substep(4));
     assert!(back.uniform && !back.reshare);
     assert_eq!(bits(&back), bits(&never));
+}
+
+#[test]
+fn the_operations_know_the_slots_they_name() {
+    // Slots 3 and 9 (the second rotated), kind 2 in the top bits of `a`:
+    // one past the largest slot named is 10, the kind and rotation bits
+    // not counted (with them the "slot" would be above 2³⁰).
+    let op = |a: u32, b: u32| Op { a, b, rest: 1.0 };
+    let ops = Ops::new(vec![op(3 | (2 << KIND_SHIFT), 9 | ROTATED), op(0, 1)]);
+    assert_eq!(ops.slots(), 10);
+    assert_eq!(ops.len(), 2);
+    assert_eq!(Ops::new(Vec::new()).slots(), 0);
+    // Every tile of a built layout has the slots its operations name.
+    for (mesh, what) in shapes() {
+        let layout = GridLayout::new(&mesh, mesh.positions(), mesh.positions(), &weights(&mesh), None).expect(what);
+        assert!(layout.ops.slots() > 0, "{what}");
+        assert!(layout.tiles.iter().all(|t| t.position.len() >= layout.ops.slots()), "{what}");
+    }
+}
+
+#[test]
+#[should_panic(expected = "a tile's columns are shorter than its operations need")]
+fn a_sweep_refuses_a_tile_shorter_than_its_operations() {
+    // The sweeps index a tile's slots without a bounds check once they have
+    // checked the tile against the operations: a tile cut short must stop
+    // the sweep there, not be read past its end.
+    let mesh = triangle_sheet(70, 12, DOWN);
+    let mut layout = GridLayout::new(&mesh, mesh.positions(), mesh.positions(), &weights(&mesh), None).unwrap();
+    // The weights' form (the shares' form would also need the shares).
+    let sweep = sweep::Sweep {
+        uniform: false,
+        ops: &layout.ops,
+        tolerance: 0.0,
+        betas: [0.0; KINDS],
+        omega: 1.0,
+        compliant: false,
+    };
+    let mut tiles = layout.tiles.clone();
+    // Whole, the tiles pass the check (so the panic below is the cut's).
+    sweep::sweep_tiles(&mut tiles, &sweep, false);
+    let short = tiles[0].position.len() - 1;
+    tiles[0].position.truncate(short);
+    sweep::sweep_tiles(&mut tiles, &sweep, false);
+    layout.tiles = tiles;
 }
