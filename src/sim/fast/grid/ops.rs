@@ -49,7 +49,7 @@ impl Ops {
     /// Panics on a kind out of range, which the layout never builds.
     pub(super) fn new(list: Vec<Op>) -> Self {
         assert!(list.iter().all(|op| op.kind() < crate::sim::BarKind::COUNT), "an operation of no bar kind");
-        let slots = list.iter().map(|op| op.slots().0.max(op.slots().1) + 1).max().unwrap_or(0);
+        let slots = list.iter().map(|op| op.slots()).map(|(a, b)| a.max(b) + 1).max().unwrap_or(0);
         Ops { list, slots }
     }
 
