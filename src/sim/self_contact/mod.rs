@@ -62,10 +62,10 @@ mod pair;
 
 use crate::sim::fast::simd::dispatch;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-use cells::{Cells, PER_TASK, gather, gather_rows};
+use cells::{Cells, PER_TASK, gather_rows};
 use list::{Candidates, PairList, Plan};
 use pair::{Moves, Slots, pair_corrections};
 
@@ -92,9 +92,11 @@ pub struct SelfContact {
     slot_point: Vec<[f32; 4]>,
     slot_start: Vec<[f32; 4]>,
     slot_rest: Vec<[f32; 4]>,
-    correction: Vec<Vec3>,
+    correction: Vec<Vec3A>,
     /// Scratch: the slots a plain search's pairs end in.
     ends: Vec<bool>,
+    /// Each chunk's pairs of the last substep, for their buffers.
+    found: Vec<Pairs>,
     /// Searches and substeps since the phase was made (for reports).
     searches: u64,
     substeps: u64,
@@ -116,25 +118,33 @@ pub struct SelfContactStep {
     pub parallel: bool,
 }
 
-/// The pairs of a run of slots that act this substep, each pair once, and
-/// what its two slots do to each other; and the run's candidates when
-/// they are to be kept.
-#[derive(Default)]
+/// The pairs of a run of slots (chunk c of the table) that act this
+/// substep, each pair once, and what its two slots do to each other; and
+/// the run's candidates when they are to be kept. Kept from substep to
+/// substep for their buffers (refilled, not reallocated).
+#[derive(Clone, Debug, Default)]
 struct Pairs {
+    /// The kept list's pairs of chunk c (`list.chunks[c]`, not tested
+    /// against r, not copied here): their count, 0 unless the list is kept.
+    listed: usize,
+    /// The pairs found this substep.
     own: Vec<u32>,
     other: Vec<u32>,
-    moved_own: Vec<Vec3>,
-    moved_other: Vec<Vec3>,
-    /// The `other` ends again, by the chunk of the table they are in
-    /// (stable): chunk t's are `to[ends[t]..ends[t + 1]]`.
-    to: Vec<(u32, Vec3)>,
+    /// The moves of the listed pairs' ends, then of the found ones'.
+    moved_own: Vec<Vec3A>,
+    moved_other: Vec<Vec3A>,
+    /// The found pairs' `other` ends again, by the chunk of the table they
+    /// are in (stable): chunk t's are `to[ends[t]..ends[t + 1]]`.
+    to: Vec<(u32, Vec3A)>,
     ends: Vec<u32>,
-    /// The first `listed` pairs are a kept list's, not tested against r,
-    /// in order of their other ends' chunks: chunk t's are
-    /// `listed_ends[t]..listed_ends[t + 1]`; `to` holds the others'.
-    listed: usize,
-    listed_ends: Vec<u32>,
     kept: Candidates,
+}
+
+impl Pairs {
+    /// Whether no pair acts.
+    fn is_empty(&self) -> bool {
+        self.listed == 0 && self.own.is_empty()
+    }
 }
 
 dispatch! {
@@ -143,13 +153,15 @@ dispatch! {
     /// (`plan`'s skin s; 0: the plain search, whose pairs are all closer
     /// than r, some maybe with two pinned ends), or from the kept list and
     /// the movers searched again.
-    fn pairs_of(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep) -> Pairs
+    fn pairs_of(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep, pairs: &mut Pairs)
         = pairs_body, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]
 }
 
 #[inline(always)]
-fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep) -> Pairs {
-    let mut pairs = Pairs::default();
+fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactStep, pairs: &mut Pairs) {
+    (pairs.listed, pairs.kept) = (0, Candidates::default());
+    pairs.own.clear();
+    pairs.other.clear();
     let first = chunk * CHUNK;
     let count = CHUNK.min(phase.cells.order.len() - first);
     let point = &phase.slot_point;
@@ -164,7 +176,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactS
             let mut kept = Candidates::default();
             phase.cells.pairs_after(first, count, step.thickness + skin, &mut kept.own, &mut kept.other);
             kept.sort_by_other(phase.cells.order.len().div_ceil(CHUNK));
-            push_close(&kept, point, r2, &mut pairs);
+            push_close(&kept, point, r2, pairs);
             pairs.kept = kept;
         }
         Plan::Keep => {
@@ -175,10 +187,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactS
             // closer than r (about 120 000 of 124 000 candidates on the
             // settled folded 256² cloth), and the rule gives nothing to the
             // others; those with a mover end are masked out there.
-            pairs.own.extend_from_slice(&candidates.own);
-            pairs.other.extend_from_slice(&candidates.other);
-            pairs.listed = pairs.own.len();
-            pairs.listed_ends.clone_from(&candidates.ends);
+            pairs.listed = candidates.own.len();
             // Each mover of the run against the others in the table (the
             // movers among them are paired in `mover_pairs`).
             let reach = step.thickness + list.skin;
@@ -198,7 +207,6 @@ fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactS
             }
         }
     }
-    pairs
 }
 
 /// The squared distance under which a pair acts ([`acts`]): r², with a
@@ -236,11 +244,19 @@ fn push_close(candidates: &Candidates, point: &[[f32; 4]], r2: f32, pairs: &mut 
     other.truncate(end);
 }
 
-/// `pairs` with the moves of both ends of each pair; the first
-/// `pairs.listed` give nothing where an end is marked in `mover` or both
-/// are pinned. With `unpinned`, the pairs of two pinned ends are dropped
-/// first (w_i + w_j = 0: they do not touch each other).
-fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mover: &[bool], unpinned: bool) -> Pairs {
+/// The moves of both ends of each of `pairs`, into its buffers: first
+/// of the `pairs.listed` pairs of `listed` (a kept list's chunk), which
+/// give nothing where an end is a mover (marked in its start row) or both
+/// are pinned; then
+/// of the pairs found. With `unpinned`, the found pairs of two pinned ends
+/// are dropped first (w_i + w_j = 0: they do not touch each other).
+fn corrections(
+    phase: &SelfContact,
+    pairs: &mut Pairs,
+    listed: Option<&Candidates>,
+    step: &SelfContactStep,
+    unpinned: bool,
+) {
     if unpinned {
         let free = |slot: u32| phase.slot_point[slot as usize][3] > 0.0;
         let mut kept = 0;
@@ -253,26 +269,30 @@ fn corrections(phase: &SelfContact, mut pairs: Pairs, step: &SelfContactStep, mo
         pairs.own.truncate(kept);
         pairs.other.truncate(kept);
     }
-    pairs.moved_own = vec![Vec3::ZERO; pairs.own.len()];
-    pairs.moved_other = vec![Vec3::ZERO; pairs.own.len()];
-    let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest, skip: None };
-    let listed = pairs.listed;
-    let (own_listed, own_found) = pairs.moved_own.split_at_mut(listed);
-    let (other_listed, other_found) = pairs.moved_other.split_at_mut(listed);
-    if listed > 0 {
-        let masked = Slots { skip: Some(mover), ..slots };
+    // Every move is written below: the buffers' old values need no
+    // clearing.
+    let count = pairs.listed + pairs.own.len();
+    for moved in [&mut pairs.moved_own, &mut pairs.moved_other] {
+        moved.truncate(count);
+        moved.resize(count, Vec3A::ZERO);
+    }
+    let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest, masked: false };
+    let (own_listed, own_found) = pairs.moved_own.split_at_mut(pairs.listed);
+    let (other_listed, other_found) = pairs.moved_other.split_at_mut(pairs.listed);
+    if let Some(listed) = listed.filter(|_| pairs.listed > 0) {
+        let masked = Slots { masked: true, ..slots };
         let moves = Moves { own: own_listed, other: other_listed };
-        pair_corrections(&masked, &pairs.own[..listed], &pairs.other[..listed], moves, step);
+        pair_corrections(&masked, &listed.own, &listed.other, moves, step);
     }
     let moves = Moves { own: own_found, other: other_found };
-    pair_corrections(&slots, &pairs.own[listed..], &pairs.other[listed..], moves, step);
-    // The other ends by chunk, so each chunk's sums can run on their own
-    // (a kept list's pairs were sorted so when it was made).
-    let (other, moved) = (&pairs.other[listed..], &pairs.moved_other[listed..]);
-    let mut to = vec![(0, Vec3::ZERO); other.len()];
+    pair_corrections(&slots, &pairs.own, &pairs.other, moves, step);
+    // The found pairs' other ends by chunk, so each chunk's sums can run
+    // on their own (a kept list's pairs were sorted so when it was made).
+    let (other, moved) = (&pairs.other, &pairs.moved_other[pairs.listed..]);
+    let to = &mut pairs.to;
+    to.clear();
+    to.resize(other.len(), (0, Vec3A::ZERO));
     pairs.ends = sort_by_chunk(other, phase.cells.order.len().div_ceil(CHUNK), |k, at| to[at] = (other[k], moved[k]));
-    pairs.to = to;
-    pairs
 }
 
 /// A stable counting sort of slots by the chunk of the table they are in:
@@ -339,12 +359,19 @@ impl SelfContact {
         let parallel = step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
         // Motion per substep at most r/4.
         let limit = 0.25 * r;
+        // |d|² at most `within` has |d| ≤ limit whatever the roundings
+        // (each within 2⁻²⁴ of its value, far less than the 10⁻⁵ margin):
+        // most particles are tested without a square root.
+        let within = limit * limit * (1.0 - 1e-5);
         let bound = |((x, x0), w): ((&mut [Vec3], &[Vec3]), &[f32])| {
             for ((x, &x0), &w) in x.iter_mut().zip(x0).zip(w) {
                 let d = *x - x0;
-                let len = d.length();
-                if w > 0.0 && len > limit {
-                    *x = x0 + d * (limit / len);
+                let len2 = d.length_squared();
+                if w > 0.0 && (len2 > within || len2.is_nan()) {
+                    let len = len2.sqrt();
+                    if len > limit {
+                        *x = x0 + d * (limit / len);
+                    }
                 }
             }
         };
@@ -366,24 +393,31 @@ impl SelfContact {
         let slots = [&mut self.slot_point, &mut self.slot_start, &mut self.slot_rest];
         match plan {
             Plan::Keep => {
+                // The movers marked in their start rows, for the mask.
                 let [point, start, _] = slots;
-                gather(point, &self.cells.order, parallel, |i| row(x_now[i], w[i]));
-                gather(start, &self.cells.order, parallel, |i| row(x0[i], 0.0));
+                let mover = &self.list.mover;
+                let motion = |k: usize, i: usize| [row(x_now[i], w[i]), row(x0[i], f32::from(u8::from(mover[k])))];
+                gather_rows([point, start], &self.cells.order, parallel, |_| true, motion);
             }
             Plan::Search { skin } => {
                 self.searches += 1;
                 self.cells.build(x_now, 2.0 * (r + skin), parallel);
                 if skin > 0.0 {
                     // Every slot may pair with a mover later.
-                    gather_rows(slots, &self.cells.order, parallel, |_| true, rows);
+                    gather_rows(slots, &self.cells.order, parallel, |_| true, |_, i| rows(i));
                 }
             }
         }
-        let this = &*self;
-        let find = |c: usize| pairs_of(this, c, plan, step);
         let chunks = n.div_ceil(CHUNK);
-        let mut found: Vec<Pairs> =
-            if parallel { (0..chunks).into_par_iter().map(find).collect() } else { (0..chunks).map(find).collect() };
+        let mut found = std::mem::take(&mut self.found);
+        found.resize_with(chunks, Pairs::default);
+        let this = &*self;
+        let find = |(c, pairs): (usize, &mut Pairs)| pairs_of(this, c, plan, step, pairs);
+        if parallel {
+            found.par_iter_mut().enumerate().for_each(find);
+        } else {
+            found.iter_mut().enumerate().for_each(find);
+        }
         let plain = plan == Plan::Search { skin: 0.0 };
         if plain {
             // Only the pairs' ends read their rows: a moving cloth finds
@@ -393,10 +427,13 @@ impl SelfContact {
             copy_ends(&found, slots, &mut self.ends, &self.cells.order, parallel, rows);
         }
         let this = &*self;
-        let mover = &self.list.mover;
-        let moves = |pairs: Pairs| corrections(this, pairs, step, mover, plain);
-        found =
-            if parallel { found.into_par_iter().map(moves).collect() } else { found.into_iter().map(moves).collect() };
+        let listed = &self.list.chunks;
+        let moves = |(c, pairs): (usize, &mut Pairs)| corrections(this, pairs, listed.get(c), step, plain);
+        if parallel {
+            found.par_iter_mut().enumerate().for_each(moves);
+        } else {
+            found.iter_mut().enumerate().for_each(moves);
+        }
         match plan {
             Plan::Search { skin } => {
                 let kept = found.iter_mut().map(|pairs| std::mem::take(&mut pairs.kept)).collect();
@@ -404,9 +441,10 @@ impl SelfContact {
             }
             Plan::Keep => found.push(self.mover_pairs(step)),
         }
-        if found.iter().all(|pairs| pairs.own.is_empty()) {
+        if found.iter().all(Pairs::is_empty) {
             // No pair acts: nothing to sum or take (a sliding cloth's
             // substeps, often).
+            self.found = found;
             return;
         }
         // Each slot sums its pairs from zero in the order they were found:
@@ -415,14 +453,16 @@ impl SelfContact {
         // slots (by the earlier slot), then its own query's. The movers'
         // pairs of a kept list come last.
         let mut correction = std::mem::take(&mut self.correction);
-        correction.resize(n, Vec3::ZERO);
-        let sum = |(t, out): (usize, &mut [Vec3])| {
-            out.fill(Vec3::ZERO);
+        correction.resize(n, Vec3A::ZERO);
+        let listed = &self.list.chunks;
+        let sum = |(t, out): (usize, &mut [Vec3A])| {
+            out.fill(Vec3A::ZERO);
             let base = t * CHUNK;
-            for pairs in &found {
+            for (c, pairs) in found.iter().enumerate() {
                 if pairs.listed > 0 {
-                    let (from, to) = (pairs.listed_ends[t] as usize, pairs.listed_ends[t + 1] as usize);
-                    for (&j, &moved) in pairs.other[from..to].iter().zip(&pairs.moved_other[from..to]) {
+                    let list = &listed[c];
+                    let (from, to) = (list.ends[t] as usize, list.ends[t + 1] as usize);
+                    for (&j, &moved) in list.other[from..to].iter().zip(&pairs.moved_other[from..to]) {
                         out[j as usize - base] += moved;
                     }
                 }
@@ -431,7 +471,8 @@ impl SelfContact {
                 }
             }
             if let Some(pairs) = found.get(t) {
-                for (&i, &moved) in pairs.own.iter().zip(&pairs.moved_own) {
+                let own = listed.get(t).filter(|_| pairs.listed > 0).map_or(&[][..], |list| &list.own);
+                for (&i, &moved) in own.iter().chain(&pairs.own).zip(&pairs.moved_own) {
                     out[i as usize - base] += moved;
                 }
             }
@@ -450,7 +491,7 @@ impl SelfContact {
         let (slot_of, sums) = (&self.cells.slot, &correction);
         let take = |(c, x): (usize, &mut [Vec3])| {
             for (x, &k) in x.iter_mut().zip(&slot_of[c * PER_TASK..]) {
-                *x += sums[k as usize];
+                *x += Vec3::from(sums[k as usize]);
             }
         };
         if parallel {
@@ -459,6 +500,8 @@ impl SelfContact {
             x.chunks_mut(PER_TASK).enumerate().for_each(take);
         }
         self.correction = correction;
+        found.truncate(chunks);
+        self.found = found;
     }
 
     /// The pairs of two movers that act now: a table of the movers alone,
@@ -482,7 +525,8 @@ impl SelfContact {
                 }
             }
         }
-        corrections(self, pairs, step, &[], false)
+        corrections(self, &mut pairs, None, step, false);
+        pairs
     }
 }
 
@@ -507,7 +551,7 @@ fn copy_ends(
         }
     }
     if any {
-        gather_rows(slots, order, parallel, |k| ends[k], pick);
+        gather_rows(slots, order, parallel, |k| ends[k], |_, i| pick(i));
         ends.fill(false);
     }
 }

@@ -29,7 +29,7 @@
 //!
 //! with the bits the rule gives when j is the owner.
 
-use glam::Vec3;
+use glam::{Vec3A, Vec4};
 
 use super::SelfContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, scale, sub};
@@ -41,94 +41,169 @@ use crate::sim::fast::simd::{self, SimdLevel};
 pub(super) struct Slots<'a> {
     /// x and w: `[x, y, z, w]`.
     pub(super) point: &'a [[f32; 4]],
-    /// x0: `[x, y, z, 0]`.
+    /// x0 and a mark: `[x, y, z, 1 or 0]` (1: a slot whose pairs
+    /// `masked` drops).
     pub(super) start: &'a [[f32; 4]],
     /// X: `[x, y, z, 0]`.
     pub(super) rest: &'a [[f32; 4]],
-    /// With `Some(marked)`: a pair with an end marked, or with both ends
-    /// pinned, gives nothing (a kept list's pairs, computed without
-    /// testing them first: `self_contact/list.rs`).
-    pub(super) skip: Option<&'a [bool]>,
+    /// A pair with an end marked, or with both ends pinned, gives nothing
+    /// (a kept list's pairs, computed without testing them first, the
+    /// movers marked: `self_contact/list.rs`). The mark comes with the
+    /// start row that the rule reads anyway: no load of its own.
+    pub(super) masked: bool,
 }
 
 /// The moves of pair k's two slots, `own[k]` and `other[k]`.
 pub(super) struct Moves<'a> {
-    pub(super) own: &'a mut [Vec3],
-    pub(super) other: &'a mut [Vec3],
+    pub(super) own: &'a mut [Vec3A],
+    pub(super) other: &'a mut [Vec3A],
 }
 
 /// What slots `own[k]` and `other[k]` do to each other, for each k, into
 /// `out` (every slice the same length; the two slots of a pair not both
-/// pinned, unless `slots.skip` is given).
+/// pinned, unless `slots.masked`).
 #[allow(unsafe_code)]
 pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
     #[cfg(target_arch = "x86_64")]
-    if simd::level() >= SimdLevel::Avx2 {
-        // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
-        // and FMA, the features `avx2::pair_corrections` is compiled for.
-        unsafe { avx2::pair_corrections(slots, own, other, out, step) };
-        return;
+    match simd::level() {
+        SimdLevel::Avx512 => {
+            // SAFETY: the level is AVX-512 only when the CPU reports AVX-512
+            // F and VL besides AVX2 and FMA, the features
+            // `avx2::pair_corrections_avx512` is compiled for.
+            unsafe { avx2::pair_corrections_avx512(slots, own, other, out, step) };
+            return;
+        }
+        SimdLevel::Avx2 => {
+            // SAFETY: the level is AVX2 only when the CPU reports AVX2 and
+            // FMA, the features `avx2::pair_corrections` is compiled for.
+            unsafe { avx2::pair_corrections(slots, own, other, out, step) };
+            return;
+        }
+        SimdLevel::Portable => {}
     }
     corrections_in::<F32x8>(slots, own, other, out, step);
 }
 
-/// [`pair_corrections`] on lanes of type `T`.
+/// `[e(0), …, e(7)]` for an expression `e` of the lane `l`, written out
+/// (as `per_lane!`, for arrays of other types).
+macro_rules! each_lane {
+    (|$l:ident| $e:expr) => {
+        [
+            { let $l = 0usize; $e },
+            { let $l = 1usize; $e },
+            { let $l = 2usize; $e },
+            { let $l = 3usize; $e },
+            { let $l = 4usize; $e },
+            { let $l = 5usize; $e },
+            { let $l = 6usize; $e },
+            { let $l = 7usize; $e },
+        ]
+    };
+}
+
+/// [`pair_corrections`] on lanes of type `T`: one loop for the pairs
+/// given untested to a mask, one for the others (the mask's loads and
+/// selects kept out of the plain loop's registers).
 #[inline(always)]
 fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
+    match slots.masked {
+        false => corrections_of::<T, false>(slots, own, other, out, step),
+        true => corrections_of::<T, true>(slots, own, other, out, step),
+    }
+}
+
+/// [`corrections_in`], with `MASKED` as `slots.masked`: whole
+/// batches of eight pairs, then the last one padded.
+#[inline(always)]
+fn corrections_of<T: Rows, const MASKED: bool>(
+    slots: &Slots,
+    own: &[u32],
+    other: &[u32],
+    out: Moves,
+    step: &SelfContactStep,
+) {
+    let whole = own.len() / LANES * LANES;
+    let (batches, tail) = (own[..whole].chunks_exact(LANES).zip(other[..whole].chunks_exact(LANES)), whole);
+    let outs = out.own[..whole].chunks_exact_mut(LANES).zip(out.other[..whole].chunks_exact_mut(LANES));
+    for ((own, other), (out_i, out_j)) in batches.zip(outs) {
+        let a: [usize; LANES] = each_lane!(|l| own[l] as usize);
+        let b: [usize; LANES] = each_lane!(|l| other[l] as usize);
+        let [moved_i, moved_j] = batch::<T, MASKED>(slots, &a, &b, step);
+        store(moved_i, out_i);
+        store(moved_j, out_j);
+    }
+    if tail < own.len() {
+        // Lanes past the end pair slot 0 with itself: d = 0, nothing.
+        let a: [usize; LANES] = std::array::from_fn(|l| own.get(tail + l).map_or(0, |&s| s as usize));
+        let b: [usize; LANES] = std::array::from_fn(|l| other.get(tail + l).map_or(0, |&s| s as usize));
+        let [moved_i, moved_j] = batch::<T, MASKED>(slots, &a, &b, step);
+        let (mut i, mut j) = ([Vec3A::ZERO; LANES], [Vec3A::ZERO; LANES]);
+        store(moved_i, &mut i);
+        store(moved_j, &mut j);
+        let left = own.len() - tail;
+        out.own[tail..].copy_from_slice(&i[..left]);
+        out.other[tail..].copy_from_slice(&j[..left]);
+    }
+}
+
+/// The moves of slots `a[l]` and `b[l]`'s pairs ([`rule`]); with `MASKED`,
+/// nothing where an end's start row is marked or both ends are pinned.
+#[inline(always)]
+fn batch<T: Rows, const MASKED: bool>(
+    slots: &Slots,
+    a: &[usize; LANES],
+    b: &[usize; LANES],
+    step: &SelfContactStep,
+) -> [Point<T>; 2] {
     let point = |rows: &[[f32; 4]], s: &[usize; LANES]| -> Point<T> {
         let [x, y, z, _] = T::gather(rows, s);
         [x, y, z]
     };
-    let batches = own.chunks(LANES).zip(other.chunks(LANES));
-    for ((own, other), (out_i, out_j)) in batches.zip(out.own.chunks_mut(LANES).zip(out.other.chunks_mut(LANES))) {
-        // Lanes past the end pair slot 0 with itself: d = 0, nothing.
-        let a: [usize; LANES] = std::array::from_fn(|l| own.get(l).map_or(0, |&s| s as usize));
-        let b: [usize; LANES] = std::array::from_fn(|l| other.get(l).map_or(0, |&s| s as usize));
-        let [xi0, xi1, xi2, wi] = T::gather(slots.point, &a);
-        let [xj0, xj1, xj2, wj] = T::gather(slots.point, &b);
-        let [moved_i, moved_j] = rule(
-            [xi0, xi1, xi2],
-            [xj0, xj1, xj2],
-            point(slots.start, &a),
-            point(slots.start, &b),
-            point(slots.rest, &a),
-            point(slots.rest, &b),
-            wi,
-            wj,
-            step,
-        );
-        let [moved_i, moved_j] = match slots.skip {
-            None => [moved_i, moved_j],
-            Some(marked) => {
-                let zero = T::splat(0.0);
-                let mut unmarked = [0.0; LANES];
-                for (l, u) in unmarked.iter_mut().enumerate() {
-                    *u = f32::from(u8::from(!marked[a[l]] & !marked[b[l]]));
-                }
-                let keep = T::if_greater(wi + wj, zero, T::from_values(unmarked), zero);
-                // Written out: a closure mapped over the points was left a
-                // call per select.
-                let half = T::splat(0.5);
-                [
-                    [
-                        T::if_greater(keep, half, moved_i[0], zero),
-                        T::if_greater(keep, half, moved_i[1], zero),
-                        T::if_greater(keep, half, moved_i[2], zero),
-                    ],
-                    [
-                        T::if_greater(keep, half, moved_j[0], zero),
-                        T::if_greater(keep, half, moved_j[1], zero),
-                        T::if_greater(keep, half, moved_j[2], zero),
-                    ],
-                ]
-            }
-        };
-        for (moved, out) in [(moved_i, out_i), (moved_j, out_j)] {
-            let [mx, my, mz] = moved.map(T::values);
-            for (l, out) in out.iter_mut().enumerate() {
-                *out = Vec3::new(mx[l], my[l], mz[l]);
-            }
-        }
+    let [xi0, xi1, xi2, wi] = T::gather(slots.point, a);
+    let [xj0, xj1, xj2, wj] = T::gather(slots.point, b);
+    let [x0i0, x0i1, x0i2, mark_i] = T::gather(slots.start, a);
+    let [x0j0, x0j1, x0j2, mark_j] = T::gather(slots.start, b);
+    let [moved_i, moved_j] = rule(
+        [xi0, xi1, xi2],
+        [xj0, xj1, xj2],
+        [x0i0, x0i1, x0i2],
+        [x0j0, x0j1, x0j2],
+        point(slots.rest, a),
+        point(slots.rest, b),
+        wi,
+        wj,
+        step,
+    );
+    if !MASKED {
+        return [moved_i, moved_j];
+    }
+    // Marks are 0 or 1: their sum is 0 only when neither end is marked.
+    let (zero, half) = (T::splat(0.0), T::splat(0.5));
+    let keep = T::if_greater(wi + wj, zero, T::if_greater(mark_i + mark_j, half, zero, T::splat(1.0)), zero);
+    // Written out: a closure mapped over the points was left a call per
+    // select.
+    [
+        [
+            T::if_greater(keep, half, moved_i[0], zero),
+            T::if_greater(keep, half, moved_i[1], zero),
+            T::if_greater(keep, half, moved_i[2], zero),
+        ],
+        [
+            T::if_greater(keep, half, moved_j[0], zero),
+            T::if_greater(keep, half, moved_j[1], zero),
+            T::if_greater(keep, half, moved_j[2], zero),
+        ],
+    ]
+}
+
+/// Lane l of `moved` into `out[l]`, for the lanes `out` has, a row at a
+/// time (the rows' fourth lane is 0).
+#[inline(always)]
+fn store<T: Rows>(moved: Point<T>, out: &mut [Vec3A]) {
+    let [x, y, z] = moved;
+    let rows = T::to_rows([x, y, z, T::splat(0.0)]);
+    for (out, row) in out.iter_mut().zip(rows) {
+        *out = Vec3A::from_vec4(Vec4::from_array(row));
     }
 }
 
@@ -192,11 +267,30 @@ mod avx2 {
     pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
         corrections_in::<Avx>(slots, own, other, out, step);
     }
+
+    /// The same 256-bit code where AVX-512 VL gives it 32 vector
+    /// registers instead of 16.
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
+    pub(super) fn pair_corrections_avx512(
+        slots: &Slots,
+        own: &[u32],
+        other: &[u32],
+        out: Moves,
+        step: &SelfContactStep,
+    ) {
+        corrections_in::<Avx>(slots, own, other, out, step);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
+
+    /// Moves as `Vec3`s, to compare with the one-pair rule.
+    fn plain(moves: Vec<Vec3A>) -> Vec<Vec3> {
+        moves.into_iter().map(Vec3::from).collect()
+    }
 
     /// The module docs' rule for one pair, written plainly.
     #[allow(clippy::too_many_arguments)]
@@ -277,13 +371,14 @@ mod tests {
         let point: Vec<[f32; 4]> = x.iter().zip(&w).map(|(&v, &w)| row(v, w)).collect();
         let start: Vec<[f32; 4]> = x0.iter().map(|&v| row(v, 0.0)).collect();
         let rests: Vec<[f32; 4]> = rest.iter().map(|&v| row(v, 0.0)).collect();
-        let slots = Slots { point: &point, start: &start, rest: &rests, skip: None };
+        let slots = Slots { point: &point, start: &start, rest: &rests, masked: false };
         let other: Vec<u32> = (1..x.len() as u32).collect();
         let own = vec![0u32; other.len()];
-        let mut moved = vec![Vec3::NAN; other.len()];
-        let mut moved_j = vec![Vec3::NAN; other.len()];
+        let mut moved = vec![Vec3A::NAN; other.len()];
+        let mut moved_j = vec![Vec3A::NAN; other.len()];
         let step = SelfContactStep { thickness: r, friction: 0.4, parallel: false };
         pair_corrections(&slots, &own, &other, Moves { own: &mut moved, other: &mut moved_j }, &step);
+        let (moved, moved_j) = (plain(moved), plain(moved_j));
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
         let mut pushed = 0;
         for (k, &j) in other.iter().enumerate() {
@@ -320,15 +415,17 @@ mod tests {
         let p = Vec3::new(0.1, 0.2, 0.3);
         let x: Vec<Vec3> = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X].iter().map(|d| p + *d * 0.004).collect();
         let rest: Vec<[f32; 4]> = (0..5).map(|i| [i as f32, 0.0, 0.0, 0.0]).collect();
-        let start: Vec<[f32; 4]> = x.iter().map(|v| [v.x, v.y, v.z, 0.0]).collect();
         let step = SelfContactStep { thickness: r, friction: 0.3, parallel: false };
         let (own, other) = (vec![0u32; 4], vec![1u32, 2, 3, 4]);
+        // `skip`: the marks, in the start rows' fourth lane, and the mask on.
         let run = |w: [f32; 5], skip: Option<&[bool]>| {
             let point: Vec<[f32; 4]> = x.iter().zip(w).map(|(v, w)| [v.x, v.y, v.z, w]).collect();
-            let slots = Slots { point: &point, start: &start, rest: &rest, skip };
-            let (mut i, mut j) = (vec![Vec3::NAN; 4], vec![Vec3::NAN; 4]);
+            let mark = |k: usize| skip.map_or(0.0, |marked| f32::from(u8::from(marked[k])));
+            let start: Vec<[f32; 4]> = x.iter().enumerate().map(|(k, v)| [v.x, v.y, v.z, mark(k)]).collect();
+            let slots = Slots { point: &point, start: &start, rest: &rest, masked: skip.is_some() };
+            let (mut i, mut j) = (vec![Vec3A::NAN; 4], vec![Vec3A::NAN; 4]);
             pair_corrections(&slots, &own, &other, Moves { own: &mut i, other: &mut j }, &step);
-            (i, j)
+            (plain(i), plain(j))
         };
         let pinned = [0.0, 1.0, 1.0, 1.0, 0.0];
         let (i, j) = run(pinned, None);
