@@ -21,7 +21,9 @@
 //!   substep at their present positions.
 //!
 //! Each substep the list's pairs go to the rule untested (it gives nothing
-//! at r or beyond), those with a mover end masked out; each mover's pairs
+//! at r or beyond), those with a mover end masked out (the movers are
+//! marked in the fourth lane of their start rows, which the rule reads
+//! anyway: `self_contact/pair.rs`); each mover's pairs
 //! are tested against r at the present positions first. A new search runs
 //! when the movers pass 1 in [`MOVERS`] of the particles.
 //!
