@@ -244,12 +244,12 @@ fn push_close(candidates: &Candidates, point: &[[f32; 4]], r2: f32, pairs: &mut 
     other.truncate(end);
 }
 
-/// The moves of both ends of each of `pairs`, into its buffers: first
-/// of the `pairs.listed` pairs of `listed` (a kept list's chunk), which
-/// give nothing where an end is a mover (marked in its start row) or both
-/// are pinned; then
-/// of the pairs found. With `unpinned`, the found pairs of two pinned ends
-/// are dropped first (w_i + w_j = 0: they do not touch each other).
+/// The moves of both ends of each of `pairs`, into its buffers: first of
+/// the `pairs.listed` pairs of `listed` (a kept list's chunk), which give
+/// nothing where an end is a mover (marked in its start row) or both are
+/// pinned; then of the pairs found. With `unpinned`, the found pairs of
+/// two pinned ends are dropped first (w_i + w_j = 0: they do not touch
+/// each other).
 fn corrections(
     phase: &SelfContact,
     pairs: &mut Pairs,

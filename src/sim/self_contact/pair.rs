@@ -122,9 +122,9 @@ fn corrections_of<T: Rows, const MASKED: bool>(
     out: Moves,
     step: &SelfContactStep,
 ) {
-    let whole = own.len() / LANES * LANES;
-    let (batches, tail) = (own[..whole].chunks_exact(LANES).zip(other[..whole].chunks_exact(LANES)), whole);
-    let outs = out.own[..whole].chunks_exact_mut(LANES).zip(out.other[..whole].chunks_exact_mut(LANES));
+    let tail = own.len() / LANES * LANES;
+    let batches = own[..tail].chunks_exact(LANES).zip(other[..tail].chunks_exact(LANES));
+    let outs = out.own[..tail].chunks_exact_mut(LANES).zip(out.other[..tail].chunks_exact_mut(LANES));
     for ((own, other), (out_i, out_j)) in batches.zip(outs) {
         let a: [usize; LANES] = each_lane!(|l| own[l] as usize);
         let b: [usize; LANES] = each_lane!(|l| other[l] as usize);
@@ -292,6 +292,35 @@ mod tests {
         moves.into_iter().map(Vec3::from).collect()
     }
 
+    type Build = fn(&Slots, &[u32], &[u32], Moves, &SelfContactStep);
+
+    /// Every build of the rule this CPU runs, by name: the portable lanes,
+    /// and the AVX2 and AVX-512 builds where the CPU has their features
+    /// (called directly: the level that `pair_corrections` picks is the
+    /// process's, shared with the tests running beside these).
+    #[allow(unsafe_code)]
+    fn builds() -> Vec<(&'static str, Build)> {
+        let mut builds: Vec<(&'static str, Build)> =
+            vec![("portable", |s, own, other, out, step| corrections_in::<F32x8>(s, own, other, out, step))];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                // SAFETY: pushed only where the CPU has AVX2 and FMA.
+                let avx2: Build =
+                    |s, own, other, out, step| unsafe { avx2::pair_corrections(s, own, other, out, step) };
+                builds.push(("avx2", avx2));
+            }
+            if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl") {
+                // SAFETY: pushed only where the CPU has AVX-512 F and VL
+                // (and so AVX2 and FMA).
+                let avx512: Build =
+                    |s, own, other, out, step| unsafe { avx2::pair_corrections_avx512(s, own, other, out, step) };
+                builds.push(("avx512", avx512));
+            }
+        }
+        builds
+    }
+
     /// The module docs' rule for one pair, written plainly.
     #[allow(clippy::too_many_arguments)]
     fn one_pair(
@@ -374,22 +403,31 @@ mod tests {
         let slots = Slots { point: &point, start: &start, rest: &rests, masked: false };
         let other: Vec<u32> = (1..x.len() as u32).collect();
         let own = vec![0u32; other.len()];
-        let mut moved = vec![Vec3A::NAN; other.len()];
-        let mut moved_j = vec![Vec3A::NAN; other.len()];
         let step = SelfContactStep { thickness: r, friction: 0.4, parallel: false };
-        pair_corrections(&slots, &own, &other, Moves { own: &mut moved, other: &mut moved_j }, &step);
-        let (moved, moved_j) = (plain(moved), plain(moved_j));
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-        let mut pushed = 0;
-        for (k, &j) in other.iter().enumerate() {
-            let j = j as usize;
-            let expected = one_pair(x[0], x[j], x0[0], x0[j], rest[0], rest[j], w[0], w[j], r, 0.4);
-            assert_eq!(bits(moved[k]), bits(expected), "pair {j}");
-            // j's end: the bits of the rule with j as the owner.
-            let expected_j = one_pair(x[j], x[0], x0[j], x0[0], rest[j], rest[0], w[j], w[0], r, 0.4);
-            assert_eq!(bits(moved_j[k]), bits(expected_j), "pair {j}, j's end");
-            pushed += usize::from(expected != Vec3::ZERO);
+        // 11 pairs: a whole batch of eight and a padded one, in every build.
+        let mut results = Vec::new();
+        for (build, corrections) in builds() {
+            let mut moved = vec![Vec3A::NAN; other.len()];
+            let mut moved_j = vec![Vec3A::NAN; other.len()];
+            corrections(&slots, &own, &other, Moves { own: &mut moved, other: &mut moved_j }, &step);
+            results.push((build, plain(moved), plain(moved_j)));
         }
+        assert!(results.len() > 1 || !cfg!(target_arch = "x86_64") || !is_x86_feature_detected!("avx2"));
+        let mut pushed = 0;
+        for (build, moved, moved_j) in &results {
+            pushed = 0;
+            for (k, &j) in other.iter().enumerate() {
+                let j = j as usize;
+                let expected = one_pair(x[0], x[j], x0[0], x0[j], rest[0], rest[j], w[0], w[j], r, 0.4);
+                assert_eq!(bits(moved[k]), bits(expected), "{build}: pair {j}");
+                // j's end: the bits of the rule with j as the owner.
+                let expected_j = one_pair(x[j], x[0], x0[j], x0[0], rest[j], rest[0], w[j], w[0], r, 0.4);
+                assert_eq!(bits(moved_j[k]), bits(expected_j), "{build}: pair {j}, j's end");
+                pushed += usize::from(expected != Vec3::ZERO);
+            }
+        }
+        let (_, moved, moved_j) = &results[0];
         // Static, kinetic, the rest neighbour inside 5 mm and the pinned
         // partner at least are pushed; d = 0, beyond r and the rest
         // neighbour outside 5 mm are not.
@@ -411,37 +449,48 @@ mod tests {
         // first run, leaves pairs 0–1 and 0–3 (slot 0 pinned, its partner
         // free) with the bits they had; 0–2 (marked) and 0–4 (both pinned)
         // give exactly nothing, where 0/0 shares would otherwise give NaN.
+        // The four pairs come three times, so the mask acts in a whole
+        // batch of eight and in a padded one, in every build.
         let r = 0.01;
         let p = Vec3::new(0.1, 0.2, 0.3);
         let x: Vec<Vec3> = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X].iter().map(|d| p + *d * 0.004).collect();
         let rest: Vec<[f32; 4]> = (0..5).map(|i| [i as f32, 0.0, 0.0, 0.0]).collect();
         let step = SelfContactStep { thickness: r, friction: 0.3, parallel: false };
-        let (own, other) = (vec![0u32; 4], vec![1u32, 2, 3, 4]);
-        // `skip`: the marks, in the start rows' fourth lane, and the mask on.
-        let run = |w: [f32; 5], skip: Option<&[bool]>| {
-            let point: Vec<[f32; 4]> = x.iter().zip(w).map(|(v, w)| [v.x, v.y, v.z, w]).collect();
-            let mark = |k: usize| skip.map_or(0.0, |marked| f32::from(u8::from(marked[k])));
-            let start: Vec<[f32; 4]> = x.iter().enumerate().map(|(k, v)| [v.x, v.y, v.z, mark(k)]).collect();
-            let slots = Slots { point: &point, start: &start, rest: &rest, masked: skip.is_some() };
-            let (mut i, mut j) = (vec![Vec3A::NAN; 4], vec![Vec3A::NAN; 4]);
-            pair_corrections(&slots, &own, &other, Moves { own: &mut i, other: &mut j }, &step);
-            (plain(i), plain(j))
-        };
+        let (own, other) = (vec![0u32; 12], [1u32, 2, 3, 4].repeat(3));
+        for (build, corrections) in builds() {
+            // `skip`: the marks, in the start rows' fourth lane, and the mask on.
+            let run = |w: [f32; 5], skip: Option<&[bool]>| {
+                let point: Vec<[f32; 4]> = x.iter().zip(w).map(|(v, w)| [v.x, v.y, v.z, w]).collect();
+                let mark = |k: usize| skip.map_or(0.0, |marked| f32::from(u8::from(marked[k])));
+                let start: Vec<[f32; 4]> = x.iter().enumerate().map(|(k, v)| [v.x, v.y, v.z, mark(k)]).collect();
+                let slots = Slots { point: &point, start: &start, rest: &rest, masked: skip.is_some() };
+                let (mut i, mut j) = (vec![Vec3A::NAN; 12], vec![Vec3A::NAN; 12]);
+                corrections(&slots, &own, &other, Moves { own: &mut i, other: &mut j }, &step);
+                (plain(i), plain(j))
+            };
+            marked_and_pinned(build, run);
+        }
+    }
+
+    /// The assertions of `marked_ends_and_pinned_pairs_give_nothing_when_asked`
+    /// for one build: `run(w, marks)` gives the twelve pairs' moves.
+    fn marked_and_pinned(build: &str, run: impl Fn([f32; 5], Option<&[bool]>) -> (Vec<Vec3>, Vec<Vec3>)) {
         let pinned = [0.0, 1.0, 1.0, 1.0, 0.0];
         let (i, j) = run(pinned, None);
-        assert!(i[3].is_nan() && j[3].is_nan(), "both pinned, unmasked: 0/0 shares");
+        assert!(i[3].is_nan() && j[3].is_nan(), "{build}: both pinned, unmasked: 0/0 shares");
         let marked = [false, false, true, false, false];
         let (mi, mj) = run(pinned, Some(&marked));
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-        for k in [0, 2] {
-            assert_eq!((bits(mi[k]), bits(mj[k])), (bits(i[k]), bits(j[k])), "pair {k}");
-            assert!(mj[k].length() > 1e-3, "pair {k} is pushed: {:?}", mj[k]);
-        }
-        for k in [1, 3] {
-            assert_eq!((bits(mi[k]), bits(mj[k])), (bits(Vec3::ZERO), bits(Vec3::ZERO)), "pair {k}");
+        for k in 0..12 {
+            if k % 4 == 0 || k % 4 == 2 {
+                assert_eq!((bits(mi[k]), bits(mj[k])), (bits(i[k]), bits(j[k])), "{build}: pair {k}");
+                assert!(mj[k].length() > 1e-3, "{build}: pair {k} is pushed: {:?}", mj[k]);
+            } else {
+                assert_eq!((bits(mi[k]), bits(mj[k])), (bits(Vec3::ZERO), bits(Vec3::ZERO)), "{build}: pair {k}");
+            }
         }
         // Unmarked and free, pair 0–2 is pushed: the mark is what stops it.
         let (_, free) = run([1.0; 5], Some(&[false; 5]));
-        assert!(free[1].length() > 1e-3, "{:?}", free[1]);
+        assert!(free[1].length() > 1e-3 && free[9].length() > 1e-3, "{build}: {:?}", free[1]);
     }
 }
