@@ -65,7 +65,7 @@ use crate::sim::fast::simd::dispatch;
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
-use cells::{Cells, PER_TASK, gather_rows};
+use cells::{Cells, PER_TASK, gather, gather_rows};
 use list::{Candidates, PairList, Plan};
 use pair::{Moves, Slots, pair_corrections};
 
@@ -396,15 +396,16 @@ impl SelfContact {
                 // The movers marked in their start rows, for the mask.
                 let [point, start, _] = slots;
                 let mover = &self.list.mover;
-                let motion = |k: usize, i: usize| [row(x_now[i], w[i]), row(x0[i], f32::from(u8::from(mover[k])))];
-                gather_rows([point, start], &self.cells.order, parallel, |_| true, motion);
+                let order = &self.cells.order;
+                gather(point, order, parallel, |_, i| row(x_now[i], w[i]));
+                gather(start, order, parallel, |k, i| row(x0[i], f32::from(u8::from(mover[k]))));
             }
             Plan::Search { skin } => {
                 self.searches += 1;
                 self.cells.build(x_now, 2.0 * (r + skin), parallel);
                 if skin > 0.0 {
                     // Every slot may pair with a mover later.
-                    gather_rows(slots, &self.cells.order, parallel, |_| true, |_, i| rows(i));
+                    gather_rows(slots, &self.cells.order, parallel, |_| true, rows);
                 }
             }
         }
@@ -551,7 +552,7 @@ fn copy_ends(
         }
     }
     if any {
-        gather_rows(slots, order, parallel, |k| ends[k], |_, i| pick(i));
+        gather_rows(slots, order, parallel, |k| ends[k], pick);
         ends.fill(false);
     }
 }
