@@ -145,12 +145,12 @@ impl Real for f32 {
     }
 }
 
-/// `F32x8([e(0), …, e(7)])` for an expression `e` of the lane `l`, written
-/// out lane by lane: `std::array::from_fn` in a large kernel is not always
+/// `[e(0), …, e(7)]` for an expression `e` of the lane `l`, written out
+/// lane by lane: `std::array::from_fn` in a large kernel is not always
 /// inlined, and a call per lane undoes the vectorisation.
-macro_rules! per_lane {
+macro_rules! each_lane {
     (|$l:ident| $e:expr) => {
-        $crate::sim::fast::kernel::F32x8([
+        [
             { let $l = 0usize; $e },
             { let $l = 1usize; $e },
             { let $l = 2usize; $e },
@@ -159,7 +159,15 @@ macro_rules! per_lane {
             { let $l = 5usize; $e },
             { let $l = 6usize; $e },
             { let $l = 7usize; $e },
-        ])
+        ]
+    };
+}
+pub(crate) use each_lane;
+
+/// `F32x8([e(0), …, e(7)])`: [`each_lane!`] into lanes.
+macro_rules! per_lane {
+    (|$l:ident| $e:expr) => {
+        $crate::sim::fast::kernel::F32x8($crate::sim::fast::kernel::each_lane!(|$l| $e))
     };
 }
 pub(crate) use per_lane;

@@ -410,6 +410,8 @@ impl SelfContact {
             }
         }
         let chunks = n.div_ceil(CHUNK);
+        // One per chunk (a kept list's movers' pairs, pushed after them
+        // last substep, are dropped here).
         let mut found = std::mem::take(&mut self.found);
         found.resize_with(chunks, Pairs::default);
         let this = &*self;
@@ -501,7 +503,6 @@ impl SelfContact {
             x.chunks_mut(PER_TASK).enumerate().for_each(take);
         }
         self.correction = correction;
-        found.truncate(chunks);
         self.found = found;
     }
 

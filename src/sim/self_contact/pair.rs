@@ -32,7 +32,7 @@
 use glam::{Vec3A, Vec4};
 
 use super::SelfContactStep;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, scale, sub};
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, each_lane, scale, sub};
 use crate::sim::fast::rows::Rows;
 use crate::sim::fast::simd::{self, SimdLevel};
 
@@ -82,23 +82,6 @@ pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: M
         SimdLevel::Portable => {}
     }
     corrections_in::<F32x8>(slots, own, other, out, step);
-}
-
-/// `[e(0), …, e(7)]` for an expression `e` of the lane `l`, written out
-/// (as `per_lane!`, for arrays of other types).
-macro_rules! each_lane {
-    (|$l:ident| $e:expr) => {
-        [
-            { let $l = 0usize; $e },
-            { let $l = 1usize; $e },
-            { let $l = 2usize; $e },
-            { let $l = 3usize; $e },
-            { let $l = 4usize; $e },
-            { let $l = 5usize; $e },
-            { let $l = 6usize; $e },
-            { let $l = 7usize; $e },
-        ]
-    };
 }
 
 /// [`pair_corrections`] on lanes of type `T`: one loop for the pairs
