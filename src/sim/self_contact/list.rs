@@ -190,12 +190,18 @@ impl PairList {
     }
 
     /// Records a search with thickness `r` and skin `skin` at positions `x`
-    /// (row order), whose pairs are `chunks` (kept only when `skin` > 0).
-    pub(super) fn searched(&mut self, r: f32, skin: f32, chunks: Vec<Candidates>, x: &[Vec3]) {
+    /// (row order), whose pairs are `chunks` (kept only when `skin` > 0);
+    /// `x` copied on the thread pool with `parallel`.
+    pub(super) fn searched(&mut self, r: f32, skin: f32, chunks: Vec<Candidates>, x: &[Vec3], parallel: bool) {
         (self.thickness, self.skin, self.served) = (r, skin, 1);
         self.chunks = if skin > 0.0 { chunks } else { Vec::new() };
-        self.at.clear();
-        self.at.extend_from_slice(x);
+        self.at.resize(x.len(), Vec3::ZERO);
+        if parallel {
+            let copy = |(at, x): (&mut [Vec3], &[Vec3])| at.copy_from_slice(x);
+            self.at.par_chunks_mut(PER_TASK).zip(x.par_chunks(PER_TASK)).for_each(copy);
+        } else {
+            self.at.copy_from_slice(x);
+        }
         self.mover.clear();
         self.movers.clear();
     }
@@ -222,7 +228,7 @@ mod tests {
         cells.build(&x, 2.0 * (r + SKIN * r), false);
         let mut list = PairList::default();
         assert!(!list.serves(r, 64), "nothing searched yet");
-        list.searched(r, 0.01, Vec::new(), &x);
+        list.searched(r, 0.01, Vec::new(), &x, false);
         assert!(list.serves(r, 64) && !list.serves(0.03, 64) && !list.serves(r, 65));
         let slot_of = |i: u32| cells.slot[i as usize];
         // The positions, some particles moved along y.

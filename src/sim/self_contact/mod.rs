@@ -440,7 +440,7 @@ impl SelfContact {
         match plan {
             Plan::Search { skin } => {
                 let kept = found.iter_mut().map(|pairs| std::mem::take(&mut pairs.kept)).collect();
-                self.list.searched(r, skin, kept, x);
+                self.list.searched(r, skin, kept, x, parallel);
             }
             Plan::Keep => found.push(self.mover_pairs(step)),
         }
