@@ -500,7 +500,7 @@ mod avx2 {
         let start = &cells.start;
         let mut runs = Runs { p, first: [0; LANES], begin: [0; LANES], end: [0; LANES] };
         for k in 0..LANES {
-            let h = h[k] as usize;
+            let h = h[k] as u32 as usize;
             // SAFETY: `buckets` gives values below 2^bits (the block's hash
             // in bits 6 and up, below 2^(bits − 6), and the cell's place in
             // its block in bits 0–5), and `pairs_after` checked that the
