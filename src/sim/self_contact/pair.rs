@@ -397,19 +397,24 @@ mod tests {
             results.push((build, plain(moved), plain(moved_j)));
         }
         assert!(results.len() > 1 || !cfg!(target_arch = "x86_64") || !is_x86_feature_detected!("avx2"));
-        let mut pushed = 0;
-        for (build, moved, moved_j) in &results {
-            pushed = 0;
-            for (k, &j) in other.iter().enumerate() {
+        // Each pair's moves by the one-pair rule: i's end, and j's as the
+        // rule gives it with j as the owner.
+        let expected: Vec<(Vec3, Vec3)> = other
+            .iter()
+            .map(|&j| {
                 let j = j as usize;
-                let expected = one_pair(x[0], x[j], x0[0], x0[j], rest[0], rest[j], w[0], w[j], r, 0.4);
-                assert_eq!(bits(moved[k]), bits(expected), "{build}: pair {j}");
-                // j's end: the bits of the rule with j as the owner.
-                let expected_j = one_pair(x[j], x[0], x0[j], x0[0], rest[j], rest[0], w[j], w[0], r, 0.4);
-                assert_eq!(bits(moved_j[k]), bits(expected_j), "{build}: pair {j}, j's end");
-                pushed += usize::from(expected != Vec3::ZERO);
+                let i_end = one_pair(x[0], x[j], x0[0], x0[j], rest[0], rest[j], w[0], w[j], r, 0.4);
+                let j_end = one_pair(x[j], x[0], x0[j], x0[0], rest[j], rest[0], w[j], w[0], r, 0.4);
+                (i_end, j_end)
+            })
+            .collect();
+        for (build, moved, moved_j) in &results {
+            for (k, (&j, &(i_end, j_end))) in other.iter().zip(&expected).enumerate() {
+                assert_eq!(bits(moved[k]), bits(i_end), "{build}: pair {j}");
+                assert_eq!(bits(moved_j[k]), bits(j_end), "{build}: pair {j}, j's end");
             }
         }
+        let pushed = expected.iter().filter(|(i_end, _)| *i_end != Vec3::ZERO).count();
         let (_, moved, moved_j) = &results[0];
         // Static, kinetic, the rest neighbour inside 5 mm and the pinned
         // partner at least are pushed; d = 0, beyond r and the rest
