@@ -7,17 +7,34 @@
 //!   ball itself (a draped cloth hangs around the ball inside its box).
 //! - **Narrow phase** (`resolve_lanes`): [`ContactStep::resolve`] for the
 //!   lanes the filter kept, collider by collider in the same order. A still
-//!   sphere, handled around its centre in world axes (mod.rs), runs steps 2
-//!   and 3 of the module docs in lanes: every lane does the operations of
-//!   the one-particle code in its order, so it gets the same bits. A lane
-//!   whose path is at least as long as its distance to the ball may have
-//!   entered it (step 1, a ray cast) and goes one particle at a time, as do
-//!   all lanes of other colliders.
+//!   sphere, handled around its centre in world axes (mod.rs), runs steps 1
+//!   to 3 of the module docs in lanes (step 1, the ray cast, where a lane's
+//!   path is at least as long as its distance to the ball): every lane does
+//!   the operations of the one-particle code in its order, so it gets the
+//!   same bits. Lanes of other colliders go one particle at a time.
 
 use glam::Vec3;
 
 use super::{ContactStep, Still};
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, lane, scale, sub};
+
+/// `[f(0), f(1), f(2)]`, a point's axes: `std::array::from_fn` in their
+/// place was left out of line for the larger closures (where it lacks the
+/// caller's CPU features: each axis a call, its lanes through the stack).
+#[inline(always)]
+fn axes(f: impl Fn(usize) -> F32x8) -> Point<F32x8> {
+    [f(0), f(1), f(2)]
+}
+
+/// `Shape::proximity` of a ball of `radius` about the origin, for eight
+/// points ℓ: φ = |ℓ| − radius and n = ℓ/|ℓ| (+y at the centre).
+#[inline(always)]
+fn ball_proximity(l: &Point<F32x8>, radius: f32) -> (F32x8, Point<F32x8>) {
+    let (zero, up) = (F32x8::splat(0.0), [F32x8::splat(0.0), F32x8::splat(1.0), F32x8::splat(0.0)]);
+    let length = dot(*l, *l).sqrt();
+    let normal: Point<F32x8> = axes(|i| F32x8::if_greater(length, zero, l[i] / length, up[i]));
+    (length - F32x8::splat(radius), normal)
+}
 
 impl ContactStep<'_> {
     /// Which of eight particles, moving from `x0` to `x` (lanes), collider
@@ -47,8 +64,8 @@ impl ContactStep<'_> {
     /// One lane at a time, it was 4 % of a draped 256 × 256 cloth's step.
     #[inline(always)]
     fn boxed_lanes(&self, k: usize, lanes: u8, x0: &Point<F32x8>, x: &Point<F32x8>) -> u8 {
-        let lo: Point<F32x8> = std::array::from_fn(|i| F32x8(std::array::from_fn(|l| x0[i].0[l].min(x[i].0[l]))));
-        let hi: Point<F32x8> = std::array::from_fn(|i| F32x8(std::array::from_fn(|l| x0[i].0[l].max(x[i].0[l]))));
+        let lo: Point<F32x8> = axes(|i| F32x8(std::array::from_fn(|l| x0[i].0[l].min(x[i].0[l]))));
+        let hi: Point<F32x8> = axes(|i| F32x8(std::array::from_fn(|l| x0[i].0[l].max(x[i].0[l]))));
         let c = &self.colliders[k];
         let mut touching = 0u8;
         match (c.bounds, c.plane) {
@@ -63,7 +80,7 @@ impl ContactStep<'_> {
             (None, Some(plane)) => {
                 for (n, point) in plane {
                     // The box corner deepest on the plane's closed side.
-                    let corner: Point<F32x8> = std::array::from_fn(|i| if n[i] >= 0.0 { lo[i] } else { hi[i] });
+                    let corner: Point<F32x8> = axes(|i| if n[i] >= 0.0 { lo[i] } else { hi[i] });
                     let offset = sub(corner, point.to_array().map(F32x8::splat));
                     let distance = dot(offset, n.to_array().map(F32x8::splat));
                     for l in 0..LANES {
@@ -144,14 +161,15 @@ impl ContactStep<'_> {
             if boxed == 0 {
                 continue;
             }
-            let one_by_one = match self.colliders[k].still {
+            match self.colliders[k].still {
                 Some(still) => self.resolve_still(k, still, boxed, x0, x),
-                None => boxed,
-            };
-            for l in (0..LANES).filter(|l| one_by_one & (1 << l) != 0) {
-                let out = self.resolve_one(k, lane(x0, l), lane(x, l));
-                for (axis, value) in x.iter_mut().zip(out.to_array()) {
-                    axis.0[l] = value;
+                None => {
+                    for l in (0..LANES).filter(|l| boxed & (1 << l) != 0) {
+                        let out = self.resolve_one(k, lane(x0, l), lane(x, l));
+                        for (axis, value) in x.iter_mut().zip(out.to_array()) {
+                            axis.0[l] = value;
+                        }
+                    }
                 }
             }
             let mut outside = 0u8;
@@ -175,61 +193,101 @@ impl ContactStep<'_> {
         }
     }
 
-    /// Steps 2 and 3 against the still collider `k` for the lanes in
-    /// `lanes`, written in the order of `resolve_one`. Returns the lanes that
-    /// may need step 1 (against a ball), left for `resolve_one`.
+    /// Steps 1 to 3 against the still collider `k` for the lanes in
+    /// `lanes`, written in the order of `resolve_one` (and of
+    /// `Shape::entry` and `Shape::proximity` for a ball), so every lane gets
+    /// the bits `resolve_one` gives it.
     #[inline(always)]
-    fn resolve_still(&self, k: usize, still: Still, lanes: u8, x0: &Point<F32x8>, x: &mut Point<F32x8>) -> u8 {
+    fn resolve_still(&self, k: usize, still: Still, lanes: u8, x0: &Point<F32x8>, x: &mut Point<F32x8>) {
         let zero = F32x8::splat(0.0);
+        let thickness = F32x8::splat(self.thickness);
         let c = still.origin().to_array().map(F32x8::splat);
-        let (l0, l) = (sub(*x0, c), sub(*x, c));
+        let (l0, mut l) = (sub(*x0, c), sub(*x, c));
         // Proximity: φ and n at ℓ.
-        let (distance, normal) = match still {
-            Still::Ball { radius, .. } => {
-                // φ = |ℓ| − radius, n = ℓ/|ℓ| (+y at the centre).
-                let length = dot(l, l).sqrt();
-                let up = [zero, F32x8::splat(1.0), zero];
-                let normal: Point<F32x8> =
-                    std::array::from_fn(|i| F32x8::if_greater(length, zero, l[i] / length, up[i]));
-                (length - F32x8::splat(radius), normal)
-            }
+        let up = [zero, F32x8::splat(1.0), zero];
+        let (mut distance, mut normal) = match still {
+            Still::Ball { radius, .. } => ball_proximity(&l, radius),
             Still::Plane { normal, .. } => {
                 let normal = normal.to_array().map(F32x8::splat);
                 (dot(l, normal), normal)
             }
         };
-        // Step 1 (a ball only: a half-space cannot be jumped) is skipped where
-        // the end is farther from the ball than the path is long; elsewhere
-        // it is left to `resolve_one`.
-        let path = dot(sub(l, l0), sub(l, l0)).sqrt();
-        let push = F32x8::splat(self.thickness) - distance;
-        let (mut entry, mut pushed) = (0u8, 0u8);
+        // D (the depth pushed) and the last push's normal, where one acted.
+        let (mut depth, mut pushed_along) = (zero, normal);
+        let mut pushed = 0u8;
+        // Step 1 (a ball only: a half-space cannot be jumped), where the end
+        // is no farther from the ball than the path is long: the ray cast of
+        // `Shape::entry`, from ℓ0 along the unit path u, t = −b − √h with
+        // b = ℓ0·u, h = b² − (|ℓ0|² − r²), entering when ℓ0 is outside
+        // (|ℓ0|² > r²), the ray heads in (b < 0), meets the ball (h ≥ 0) and
+        // within the path (t ≤ |path|).
+        if let Still::Ball { radius, .. } = still {
+            let path = sub(l, l0);
+            let length = dot(path, path).sqrt();
+            let candidates = (0..LANES).fold(0u8, |m, i| m | (u8::from(distance.0[i] <= length.0[i]) << i)) & lanes;
+            if candidates != 0 {
+                let unit: Point<F32x8> = axes(|i| path[i] / length);
+                let outside = dot(l0, l0) - F32x8::splat(radius * radius);
+                let b = dot(l0, unit);
+                let h = b * b - outside;
+                let t = -b - h.sqrt();
+                let point: Point<F32x8> = axes(|i| l0[i] + unit[i] * t);
+                // `normalize_or(+y)`: times 1/|p| where that is finite and > 0.
+                let reciprocal = F32x8::splat(1.0) / dot(point, point).sqrt();
+                let finite = F32x8(std::array::from_fn(|i| {
+                    let r = reciprocal.0[i];
+                    if r > 0.0 && r < f32::INFINITY { 1.0 } else { 0.0 }
+                }));
+                let entry_normal: Point<F32x8> =
+                    axes(|i| F32x8::if_greater(finite, zero, point[i] * reciprocal, up[i]));
+                let push = thickness - dot(sub(l, point), entry_normal);
+                let mut entered = 0u8;
+                for i in 0..LANES {
+                    let hits =
+                        outside.0[i] > 0.0 && b.0[i] < 0.0 && h.0[i] >= 0.0 && t.0[i] <= length.0[i] && push.0[i] > 0.0;
+                    entered |= u8::from(hits) << i;
+                }
+                entered &= candidates;
+                if entered != 0 {
+                    let on = F32x8(std::array::from_fn(|i| if entered & (1 << i) != 0 { 1.0 } else { 0.0 }));
+                    let pick = |then: F32x8, otherwise: F32x8| F32x8::if_greater(on, zero, then, otherwise);
+                    l = axes(|i| pick(l[i] + entry_normal[i] * push, l[i]));
+                    depth = pick(push, depth);
+                    pushed_along = axes(|i| pick(entry_normal[i], pushed_along[i]));
+                    let (after, after_normal) = ball_proximity(&l, radius);
+                    distance = pick(after, distance);
+                    normal = axes(|i| pick(after_normal[i], normal[i]));
+                    pushed = entered;
+                }
+            }
+        }
+        // Step 2: within the thickness of the surface, out along the normal.
+        let push = thickness - distance;
+        let mut within = 0u8;
         for i in 0..LANES {
-            entry |= u8::from(distance.0[i] <= path.0[i]) << i;
-            pushed |= u8::from(push.0[i] > 0.0) << i;
+            within |= u8::from(push.0[i] > 0.0) << i;
         }
-        if let Still::Plane { .. } = still {
-            entry = 0;
-        }
-        // Step 2, then 3 with D = the push.
-        let l = [l[0] + normal[0] * push, l[1] + normal[1] * push, l[2] + normal[2] * push];
+        l = axes(|i| F32x8::if_greater(push, zero, l[i] + normal[i] * push, l[i]));
+        depth = F32x8::if_greater(push, zero, depth + push, depth);
+        pushed_along = axes(|i| F32x8::if_greater(push, zero, normal[i], pushed_along[i]));
+        pushed |= within;
+        // Step 3 with D and the last push's normal n.
+        let n = pushed_along;
         let motion = sub(l, l0);
-        let tangential = sub(motion, scale(normal, dot(motion, normal)));
+        let tangential = sub(motion, scale(n, dot(motion, n)));
         let slide = dot(tangential, tangential).sqrt();
-        let bound = F32x8::splat(self.colliders[k].friction) * push;
+        let bound = F32x8::splat(self.colliders[k].friction) * depth;
         // |Δ_t| ≤ μD: all of Δ_t; otherwise Δ_t · μD/|Δ_t| (|Δ_t| > μD ≥ 0).
         let kinetic = bound / slide;
-        let removed: Point<F32x8> =
-            std::array::from_fn(|i| F32x8::if_greater(slide, bound, tangential[i] * kinetic, tangential[i]));
-        let out: Point<F32x8> = std::array::from_fn(|i| (l[i] - removed[i]) + c[i]);
+        let removed: Point<F32x8> = axes(|i| F32x8::if_greater(slide, bound, tangential[i] * kinetic, tangential[i]));
+        let out: Point<F32x8> = axes(|i| (l[i] - removed[i]) + c[i]);
         // Lanes not pushed come out where they went in, as in `resolve_one`.
-        let take = lanes & !entry & pushed;
+        let take = lanes & pushed;
         for i in (0..LANES).filter(|i| take & (1 << i) != 0) {
             for (axis, value) in x.iter_mut().zip(&out) {
                 axis.0[i] = value.0[i];
             }
         }
-        lanes & entry
     }
 }
 
@@ -304,8 +362,9 @@ mod tests {
         // 6 mm), pressed into them, and fast (paths up to 0.3 m, which take
         // the ray cast against the ball).
         // `resolve_lanes` must give every lane the bits `resolve` gives it,
-        // and the ball's lanes must really run in lanes, with pushes and
-        // both kinds of friction among them (or the test proves nothing).
+        // and the ball's lanes must really run in lanes, with paths entering
+        // the ball, pushes and both kinds of friction among them (or the test
+        // proves nothing).
         let turned = Pose { rotation: glam::Quat::from_rotation_x(0.7), translation: Vec3::new(0.0, 0.6, 0.0) };
         let tilted = Pose { rotation: glam::Quat::from_rotation_z(0.2), translation: Vec3::new(0.0, -0.1, 0.0) };
         let mut moving = Collider::fixed(Shape::Sphere { radius: 0.3 }, Pose::default());
@@ -324,7 +383,7 @@ mod tests {
             state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
         };
-        let (mut in_lanes, mut fallback) = (0u32, 0u32);
+        let (mut in_lanes, mut entered) = (0u32, 0u32);
         let (mut pushed, mut sticking, mut sliding, mut plane_moved) = (0, 0, 0, 0);
         for group in 0..500 {
             let reach = [0.0002, 0.006, 0.3][group % 3];
@@ -352,9 +411,19 @@ mod tests {
             let mut ball = x;
             let boxed = step.boxed_lanes(0, lanes, &x0, &x);
             let still = step.colliders[0].still.expect("a still ball");
-            let left = step.resolve_still(0, still, boxed, &x0, &mut ball);
-            in_lanes += (boxed & !left).count_ones();
-            fallback += left.count_ones();
+            step.resolve_still(0, still, boxed, &x0, &mut ball);
+            in_lanes += boxed.count_ones();
+            // The lanes whose path entered the ball: step 1's ray cast acts.
+            let centre = Vec3::new(0.0, 0.6, 0.0);
+            let shape = &step.colliders[0].shape;
+            for (l, &(a, b)) in pairs.iter().enumerate() {
+                if boxed & (1 << l) == 0 {
+                    continue;
+                }
+                let (l0, l1) = (a - centre, b - centre);
+                let entry = shape.entry(l0, l1).filter(|e| step.thickness > (l1 - e.point).dot(e.normal));
+                entered += u32::from(entry.is_some());
+            }
             step.resolve_lanes(&all, (Vec3::NEG_INFINITY, Vec3::INFINITY), lanes, &x0, &mut x);
             if on_plane {
                 plane_moved += (0..LANES).filter(|&l| lane(&x, l) != pairs[l].1).count();
@@ -366,17 +435,16 @@ mod tests {
                     expected.to_array().map(f32::to_bits),
                     "{a} -> {b}"
                 );
-                if boxed & !left & (1 << l) != 0 && lane(&ball, l) != b {
+                if boxed & (1 << l) != 0 && lane(&ball, l) != b {
                     pushed += 1;
                     // Friction stuck it (no tangential motion left) or let it slide.
-                    let centre = Vec3::new(0.0, 0.6, 0.0);
                     let n = (lane(&ball, l) - centre).normalize();
                     let motion = lane(&ball, l) - a;
                     if (motion - n * motion.dot(n)).length() < 1e-6 { sticking += 1 } else { sliding += 1 }
                 }
             }
         }
-        assert!(in_lanes > 500 && fallback > 50, "{in_lanes} ball lanes in lanes, {fallback} one by one");
+        assert!(in_lanes > 500 && entered > 50, "{in_lanes} ball lanes, {entered} of them entering the ball");
         assert!(pushed > 250 && sticking > 50 && sliding > 50, "{pushed} pushed: {sticking} stuck, {sliding} slid");
         assert!(plane_moved > 500, "{plane_moved} particles moved by the tilted ground");
     }
