@@ -171,7 +171,13 @@ fn relative_in<T: Rows>(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f32; 
         let velocity = [(px - qx) / dt, (py - qy) / dt, (pz - qz) / dt];
         let zero = T::splat(0.0);
         let rows = T::to_rows([air[0] - velocity[0], air[1] - velocity[1], air[2] - velocity[2], zero]);
-        relative[next..next + shared].copy_from_slice(&rows[..shared]);
+        // A whole group as a fixed-size copy (register stores); a copy of
+        // `shared` rows is a call to `memmove`.
+        if shared == LANES {
+            relative[next..next + LANES].copy_from_slice(&rows);
+        } else {
+            relative[next..next + shared].copy_from_slice(&rows[..shared]);
+        }
         next += shared;
     }
     one_at_a_time(&mut relative[next..], &x[next..], &x_prev[next..], &mut cell);
@@ -210,7 +216,10 @@ impl Cell {
         let [ix, iy, iz] = key;
         let entry = ix.wrapping_add(iy.wrapping_mul(3)).wrapping_add(iz.wrapping_mul(5)) & 7;
         let (held, corners) = &mut self.entries[entry as usize];
-        if *held != Some(key) {
+        // Compared coordinate by coordinate with the key's registers: as
+        // `*held != Some(key)` the key went to the stack as three 4-byte
+        // stores and came back as an 8-byte load (the same stall as above).
+        if held.is_none_or(|[hx, hy, hz]| (hx ^ ix) | (hy ^ iy) | (hz ^ iz) != 0) {
             *held = Some(key);
             hash_corners(key, corners);
         }
