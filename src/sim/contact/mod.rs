@@ -47,9 +47,10 @@
 //! **Eight at a time** (`contact/lanes.rs`, for the grid solver's lanes):
 //! the broad phase lane by lane, which for a still sphere also clears the
 //! particles in its box whose path stays clear of the ball (a draped cloth
-//! hangs around the ball inside its box); then steps 2 and 3 against a
-//! still sphere or plane in lanes, with the one-particle code's bits.
-//! Everything else goes one particle at a time.
+//! hangs around the ball inside its box); then steps 1 to 3 against a
+//! still sphere (the ray cast where a path may have entered it) and steps
+//! 2 and 3 against a still plane in lanes, with the one-particle code's
+//! bits. Everything else goes one particle at a time.
 
 use glam::Vec3;
 
