@@ -20,7 +20,7 @@
 use glam::Vec3;
 
 use super::super::wind::Air;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, cross, dot, sub};
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, axes, cross, dot, sub};
 use crate::sim::fast::rows::Rows;
 use crate::sim::fast::simd::{self, SimdLevel};
 
@@ -143,7 +143,7 @@ fn corner_force<T: Real>(air: &Air, dt: f32, mass: T, x: [Point<T>; 3], relative
     let [a, b, c] = x;
     let normal2 = cross(sub(b, a), sub(c, a));
     let twice_area = dot(normal2, normal2).sqrt();
-    let n = each(normal2, |v| v / twice_area);
+    let n = axes(|i| normal2[i] / twice_area);
     let [ra, rb, rc] = relative;
     let s = [ra[0] + rb[0] + rc[0], ra[1] + rb[1] + rc[1], ra[2] + rb[2] + rc[2]];
     let sn = dot(s, n);
@@ -154,10 +154,10 @@ fn corner_force<T: Real>(air: &Air, dt: f32, mass: T, x: [Point<T>; 3], relative
     let pressure = q * T::splat(air.drag) * sn * sn;
     // sign(s·n) · min(pressure, cap): both are ≥ 0, so the sign is copied.
     let drag_size = T::if_greater(pressure, drag_cap, drag_cap, pressure).copysign(sn);
-    let drag = each(n, |v| v * drag_size);
+    let drag = axes(|i| n[i] * drag_size);
     // A triangle without area feels nothing.
     let zero = T::splat(0.0);
-    let area_or_zero = |f: Point<T>| each(f, |v| T::if_greater(twice_area, zero, v, zero));
+    let area_or_zero = |f: Point<T>| axes(|i| T::if_greater(twice_area, zero, f[i], zero));
     if air.lift == 0.0 {
         return area_or_zero(drag);
     }
@@ -174,7 +174,7 @@ fn corner_force<T: Real>(air: &Air, dt: f32, mass: T, x: [Point<T>; 3], relative
     let cap = per_speed * speed;
     let size2 = dot(lift, lift);
     let shrink = cap / size2.sqrt();
-    let capped = each(lift, |v| T::if_greater(size2, cap * cap, v * shrink, v));
+    let capped = axes(|i| T::if_greater(size2, cap * cap, lift[i] * shrink, lift[i]));
     // Still air relative to the triangle (|u| = 0): no lift.
     let total = [drag[0] + capped[0], drag[1] + capped[1], drag[2] + capped[2]];
     let still = |k: usize| T::if_greater(speed2, zero, total[k], drag[k]);
@@ -196,12 +196,6 @@ pub(super) fn triangle_force(air: &Air, dt: f32, mass: f32, t: [usize; 3], x: &[
 #[cfg(test)]
 fn rows(points: &[Vec3]) -> Vec<[f32; 4]> {
     points.iter().map(|p| p.extend(0.0).to_array()).collect()
-}
-
-/// `f` on each coordinate.
-#[inline(always)]
-fn each<T: Real>(p: Point<T>, f: impl Fn(T) -> T) -> Point<T> {
-    [f(p[0]), f(p[1]), f(p[2])]
 }
 
 #[cfg(test)]

@@ -16,15 +16,7 @@
 use glam::Vec3;
 
 use super::{ContactStep, Still};
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, lane, scale, sub};
-
-/// `[f(0), f(1), f(2)]`, a point's axes: `std::array::from_fn` in their
-/// place was left out of line for the larger closures (where it lacks the
-/// caller's CPU features: each axis a call, its lanes through the stack).
-#[inline(always)]
-fn axes(f: impl Fn(usize) -> F32x8) -> Point<F32x8> {
-    [f(0), f(1), f(2)]
-}
+use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, axes, dot, lane, scale, sub};
 
 /// `Shape::proximity` of a ball of `radius` about the origin, for eight
 /// points ℓ: φ = |ℓ| − radius and n = ℓ/|ℓ| (+y at the centre).
