@@ -99,9 +99,11 @@ impl Field {
         // A lane is in lane 0's cell when its floors equal lane 0's (NaN
         // never does; −0 and 0 are one cell, and each lane keeps its own
         // floor in t).
-        let floors = floor.map(|f| f.values());
-        let first = floors.map(|f| f[0]);
-        let shared = (0..LANES).take_while(|&l| floors.iter().zip(first).all(|(f, first)| f[l] == first)).count();
+        let first = [floor[0].first(), floor[1].first(), floor[2].first()];
+        let same = floor[0].equal_bits(T::splat(first[0]))
+            & floor[1].equal_bits(T::splat(first[1]))
+            & floor[2].equal_bits(T::splat(first[2]));
+        let shared = same.trailing_ones() as usize;
         if shared == 0 {
             return None;
         }

@@ -8,10 +8,10 @@
 #![allow(unsafe_code)]
 
 use std::arch::x86_64::{
-    __m128, __m256, _CMP_GT_OQ, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_blendv_ps,
-    _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_div_ps, _mm256_extractf128_ps, _mm256_floor_ps, _mm256_max_ps,
-    _mm256_mul_ps, _mm256_or_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_sqrt_ps, _mm256_sub_ps,
-    _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+    __m128, __m256, _CMP_EQ_OQ, _CMP_GT_OQ, _mm256_add_ps, _mm256_and_ps, _mm256_andnot_ps, _mm256_blendv_ps,
+    _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_cvtss_f32, _mm256_div_ps, _mm256_extractf128_ps, _mm256_floor_ps,
+    _mm256_max_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set_m128, _mm256_set1_ps, _mm256_shuffle_ps,
+    _mm256_sqrt_ps, _mm256_sub_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -111,12 +111,19 @@ impl Rows for Avx {
         out
     }
     #[inline(always)]
-    fn values(self) -> [f32; LANES] {
-        self.lanes()
-    }
-    #[inline(always)]
     fn from_values(values: [f32; LANES]) -> Self {
         Avx::from(values)
+    }
+    /// `vcmpps` equal-ordered (false for NaN, −0 = 0), then `vmovmskps`.
+    #[inline(always)]
+    fn equal_bits(self, other: Self) -> u32 {
+        // SAFETY: by the type's contract, called only where AVX2 is enabled.
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, other.0)) as u32 }
+    }
+    #[inline(always)]
+    fn first(self) -> f32 {
+        // SAFETY: by the type's contract, called only where AVX2 is enabled.
+        unsafe { _mm256_cvtss_f32(self.0) }
     }
 }
 
