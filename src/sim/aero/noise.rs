@@ -348,7 +348,8 @@ mod tests {
         };
         assert_eq!(bits_but_lost(&portable), bits_but_lost(&relative));
         // Both ways were taken: most groups of eight share a cell, some
-        // cross an edge.
+        // cross an edge. (Counted with the portable lanes; the equal mask
+        // at every level the CPU has is checked by `Rows`'s own test.)
         let lanes = |group: &[Vec3]| {
             let at = [0, 1, 2].map(|k| F32x8(std::array::from_fn(|l| group[l][k])));
             field.at_lanes(at, &mut Cell::default()).is_some_and(|(_, shared)| shared == LANES)

@@ -54,3 +54,57 @@ impl Rows for F32x8 {
         self.0[0]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every method of [`Rows`] on `T`, against the lanes one by one: the
+    /// gather and its inverse on rows of distinct values, and the equal
+    /// mask on lanes that differ in one lane each (its bit alone clear),
+    /// with a NaN (equal to nothing, itself included) and −0 against 0
+    /// (equal). `lanes` turns `T` back into values.
+    fn check<T: Rows>(lanes: impl Fn(T) -> [f32; LANES]) {
+        let rows: Vec<[f32; 4]> = (0..11).map(|r| std::array::from_fn(|k| (4 * r + k) as f32 + 0.5)).collect();
+        let s = [3, 10, 0, 7, 7, 1, 9, 4];
+        let gathered = T::gather(&rows, &s);
+        for (k, lane) in gathered.into_iter().enumerate() {
+            assert_eq!(lanes(lane), s.map(|r| rows[r][k]), "component {k} of the gathered rows");
+        }
+        assert_eq!(T::to_rows(gathered), s.map(|r| rows[r]), "the gather's inverse");
+        let values: [f32; LANES] = std::array::from_fn(|l| l as f32 * 1.25 - 3.0);
+        let a = T::from_values(values);
+        assert_eq!(lanes(a), values);
+        assert_eq!(a.first(), values[0]);
+        assert_eq!(a.equal_bits(a), 0xFF, "every lane equals itself");
+        for l in 0..LANES {
+            let mut other = values;
+            other[l] += 1.0;
+            assert_eq!(a.equal_bits(T::from_values(other)), 0xFF ^ (1 << l), "lane {l} differs");
+        }
+        let mut signed = [0.0f32; LANES];
+        signed[2] = -0.0;
+        signed[5] = f32::NAN;
+        let signed = T::from_values(signed);
+        assert_eq!(signed.equal_bits(T::splat(0.0)), 0xFF ^ (1 << 5), "−0 equals 0; a NaN equals nothing");
+        assert_eq!(signed.equal_bits(signed), 0xFF ^ (1 << 5), "a NaN does not equal itself");
+    }
+
+    #[test]
+    fn every_level_reads_rows_into_lanes_and_compares_lane_by_lane() {
+        check::<F32x8>(|x| x.0);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            #[target_feature(enable = "avx2,fma")]
+            fn check_avx() {
+                check::<super::super::avx::Avx>(|x| x.lanes());
+            }
+            // SAFETY: the CPU reports AVX2 and FMA, the features `check_avx`
+            // is compiled for (and so the `Avx` contract holds inside it).
+            #[allow(unsafe_code)]
+            unsafe {
+                check_avx()
+            };
+        }
+    }
+}
