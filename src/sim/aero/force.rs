@@ -22,6 +22,7 @@ use glam::Vec3;
 use super::super::wind::Air;
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, axes, cross, dot, sub};
 use crate::sim::fast::rows::Rows;
+#[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
 
 /// A third of each triangle's force (N) into `third_force`, from the

@@ -18,6 +18,7 @@ use glam::Vec3;
 use super::super::wind::Air;
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real};
 use crate::sim::fast::rows::Rows;
+#[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
 
 /// RMS of one component of the noise before scaling, measured

@@ -56,6 +56,7 @@ mod grid;
 pub(crate) mod kernel;
 pub(crate) mod rows;
 pub mod simd;
+pub(crate) mod wide_lanes;
 
 use glam::Vec3;
 

@@ -2,8 +2,11 @@
 //! row a particle or slot), eight rows at a time, and read back out. The
 //! phases that visit particles through an index (the self-collide phase's
 //! pairs, the air's triangle corners) run their lane kernels on any type
-//! with it: [`F32x8`] everywhere, and [`Avx`](super::avx::Avx) where AVX2
-//! loads each row once and transposes eight of them in a few shuffles.
+//! with it: [`F32x8`] everywhere, [`Avx`](super::avx::Avx) where AVX2
+//! loads each row once and transposes eight of them in a few shuffles, and
+//! [`Wide`](super::wide_lanes::Wide), the portable level's explicit vectors
+//! (the coloured path's octets without AVX2), which transposes four rows
+//! at a time.
 
 use super::kernel::{F32x8, LANES, Real, per_lane};
 
@@ -93,6 +96,7 @@ mod tests {
     #[test]
     fn every_level_reads_rows_into_lanes_and_compares_lane_by_lane() {
         check::<F32x8>(|x| x.0);
+        check::<super::super::wide_lanes::Wide>(|x| x.to_array());
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             #[target_feature(enable = "avx2,fma")]

@@ -34,6 +34,7 @@ use glam::Vec3;
 
 use crate::sim::fast::GridLayout;
 use crate::sim::fast::kernel::{LANES, Point, Real, dot, scale, sub};
+#[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
 use crate::sim::mesh::{BarKind, ClothMesh, MeshParts};
 use crate::sim::step::{Solver, Substep};
@@ -257,7 +258,6 @@ fn rigid_passes(rows: &mut [[f32; 4]], edges: &SweepEdges, runs: &[Range<usize>]
         unsafe { avx2::rigid_passes(rows, edges, runs, count) };
         return;
     }
-    let _ = SimdLevel::Avx2;
     for _ in 0..count {
         rigid_pass(rows, edges, runs, |_, _| false);
     }

@@ -34,6 +34,7 @@ use glam::{Vec3A, Vec4};
 use super::SelfContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, each_lane, scale, sub};
 use crate::sim::fast::rows::Rows;
+#[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
 
 /// What the phase reads of each slot of the sorted table, one 16-byte row

@@ -41,7 +41,7 @@ pub(super) struct BarColumns {
 }
 
 /// `f32`s in a particle's row (x, y, z, w).
-const ROW: u32 = 4;
+pub(super) const ROW: u32 = 4;
 
 impl BarColumns {
     /// The particle indices of bar `i`'s ends.

@@ -43,8 +43,11 @@
 //! Bars of one colour share no particle, so the lanes compute what one bar
 //! at a time would ([`relax_one`]), in any order.
 
+#[cfg(target_arch = "x86_64")]
 use super::Particle;
+#[cfg(target_arch = "x86_64")]
 use super::colouring::{BarColumns, Colouring};
+#[cfg(target_arch = "x86_64")]
 use super::sweep::{Sweep, relax_one};
 
 /// The AVX2 octets, software-pipelined: the loop starts octet k + 1 (loads

@@ -11,8 +11,10 @@
 //! so the lanes give the bits of one bar at a time (a test checks this). The
 //! colour's last `n mod 8` bars, and the last group of bars that found no
 //! free colour (not independent), go one at a time in their order. Without
-//! AVX2 (or with `DRAPE_SIMD=portable`) every bar goes one at a time. Both
-//! skip the octets whose ends are all fixed ([`Colouring::live`]).
+//! AVX2 (or with `DRAPE_SIMD=portable`) the octets run in the portable
+//! lanes of [`Wide`] (NEON on AArch64, SSE on x86-64's baseline; see
+//! [`relax_pass_portable`]). Both skip the octets whose ends are all fixed
+//! ([`Colouring::live`]).
 //!
 //! A fourth cut (tablecloth step 320–334 → 302–304 µs on a Zen 4, AVX2):
 //! an octet's overhead out of the loop. The tolerance is a compile-time
@@ -61,11 +63,11 @@
 //! a shuffle to join or part them.
 
 use super::Particle;
-use super::colouring::{BarColumns, Colouring};
-#[cfg(test)]
-use crate::sim::fast::kernel::LANES;
-use crate::sim::fast::kernel::{excess, relax_pair};
+use super::colouring::{BarColumns, Colouring, ROW};
+use crate::sim::fast::kernel::{LANES, Real, each_lane, excess, relax_pair};
+use crate::sim::fast::rows::Rows;
 use crate::sim::fast::simd::{self, SimdLevel};
+use crate::sim::fast::wide_lanes::Wide;
 
 /// What a pass needs, by bar kind (0 structural, 1 bend, 2 shear).
 pub(super) struct Sweep {
@@ -102,16 +104,51 @@ pub(super) fn relax_pass(
             }
         };
     }
-    let _ = (lanes, SimdLevel::Avx2);
+    relax_pass_portable(particles, colouring, mu, sweep, lanes)
+}
+
+/// [`relax_pass`] without `std::arch`: with `lanes`, the octets in the
+/// portable lanes ([`Wide`]: two NEON registers on AArch64, two SSE
+/// registers on x86-64's baseline), otherwise every bar one at a time. The
+/// same bits either way.
+///
+/// One bar at a time is a chain of a square root and a division that the
+/// CPU overlaps with little else. On host F (Intel Xeon, x86-64 baseline
+/// build, `DRAPE_SIMD=portable`) the tablecloth's step took 14.9–15.7 ns a
+/// projection so, about the reference solver's 17–18 ns; in [`Wide`]'s
+/// lanes 5.5–5.8 ns. Both ways alternated in one process: the tablecloth's
+/// step 2.5–2.8 → 1.36–1.43 ms, disc-183's 122–165 → 78–86 ms (medians;
+/// `docs/performance.md`). The octets in [`F32x8`](crate::sim::fast::kernel::F32x8)
+/// were no quicker than one at a time (the compiler kept half of each
+/// octet scalar, on x86-64 and AArch64 alike).
+fn relax_pass_portable(
+    particles: &mut [Particle],
+    colouring: &Colouring,
+    mu: &mut [f32],
+    sweep: &Sweep,
+    lanes: bool,
+) -> f32 {
     let xpbd = sweep.betas.iter().any(|&b| b > 0.0);
     // The level's rounding: fused where it has FMA (at AVX2 and above this
     // path runs only when the lanes are not asked for, in tests, and
     // `f32::mul_add` gives the fused bits there too).
     let fused = simd::level() >= SimdLevel::Avx2 || simd::PORTABLE_FUSED;
     let mut worst = f32::NEG_INFINITY;
-    let mut relax = |bars: std::ops::Range<usize>| {
-        for i in bars {
-            let (bars, mu) = (&colouring.bars, &mut mu[i]);
+    // Bars `range` one at a time, or (`octets`, with `lanes`) eight at a time.
+    let mut relax = |range: std::ops::Range<usize>, octets: bool| {
+        let bars = &colouring.bars;
+        if octets && lanes {
+            let w = match (xpbd, fused) {
+                (true, true) => relax_octets::<true, true>(particles, bars, range, mu, sweep),
+                (true, false) => relax_octets::<true, false>(particles, bars, range, mu, sweep),
+                (false, true) => relax_octets::<false, true>(particles, bars, range, mu, sweep),
+                (false, false) => relax_octets::<false, false>(particles, bars, range, mu, sweep),
+            };
+            worst = worst.max(w);
+            return;
+        }
+        for i in range {
+            let mu = &mut mu[i];
             let w = match (xpbd, fused) {
                 (true, true) => relax_one::<true, true>(particles, bars, i, mu, sweep),
                 (true, false) => relax_one::<true, false>(particles, bars, i, mu, sweep),
@@ -125,10 +162,58 @@ pub(super) fn relax_pass(
     for c in 0..colouring.colours() {
         if c < colouring.independent {
             let (octets, rest) = colouring.live(c);
-            octets.into_iter().for_each(&mut relax);
-            relax(rest..colouring.colour(c).end);
+            octets.into_iter().for_each(|octets| relax(octets, true));
+            relax(rest..colouring.colour(c).end, false);
         } else {
-            relax(colouring.colour(c));
+            relax(colouring.colour(c), false);
+        }
+    }
+    worst
+}
+
+/// The octets `range` (bars of one colour, a multiple of eight) in the
+/// portable lanes, one octet at a time: each lane computes what
+/// [`relax_one`] computes for its bar (the kernel is one source for `f32`
+/// and the lanes), and bars of one colour share no particle, so the octet's
+/// order among its bars changes nothing.
+#[inline(always)]
+fn relax_octets<const XPBD: bool, const FUSED: bool>(
+    particles: &mut [Particle],
+    bars: &BarColumns,
+    range: std::ops::Range<usize>,
+    mu: &mut [f32],
+    sweep: &Sweep,
+) -> f32 {
+    let rows: &mut [[f32; 4]] = bytemuck::cast_slice_mut(particles);
+    let (a, b, rest, kind) =
+        (&bars.a[range.clone()], &bars.b[range.clone()], &bars.rest[range.clone()], &bars.kind[range.clone()]);
+    let mu = &mut mu[range];
+    let omega = Wide::splat(sweep.omega);
+    let mut worst = f32::NEG_INFINITY;
+    let octets = a.chunks_exact(LANES).zip(b.chunks_exact(LANES)).zip(rest.chunks_exact(LANES));
+    for (((a, b), rest), (kind, mu)) in octets.zip(kind.chunks_exact(LANES).zip(mu.chunks_exact_mut(LANES))) {
+        let (ia, ib) = (each_lane!(|l| (a[l] / ROW) as usize), each_lane!(|l| (b[l] / ROW) as usize));
+        let [ax, ay, az, wa] = Wide::gather(rows, &ia);
+        let [bx, by, bz, wb] = Wide::gather(rows, &ib);
+        let (mut pa, mut pb) = ([ax, ay, az], [bx, by, bz]);
+        let rest = Wide::from_values(each_lane!(|l| rest[l]));
+        let beta =
+            if XPBD { Wide::from_values(each_lane!(|l| sweep.betas[usize::from(kind[l])])) } else { Wide::splat(0.0) };
+        let mut mu8 = if XPBD { Wide::from_values(each_lane!(|l| mu[l])) } else { Wide::splat(0.0) };
+        let v = relax_pair::<Wide, XPBD, FUSED>(&mut pa, wa, &mut pb, wb, rest, &mut mu8, beta, omega);
+        if XPBD {
+            mu.copy_from_slice(mu8.as_array());
+        }
+        // Bars of one colour share no particle: end a's rows, then end b's.
+        for (row, &i) in Wide::to_rows([pa[0], pa[1], pa[2], wa]).into_iter().zip(&ia) {
+            rows[i] = row;
+        }
+        for (row, &i) in Wide::to_rows([pb[0], pb[1], pb[2], wb]).into_iter().zip(&ib) {
+            rows[i] = row;
+        }
+        if sweep.tolerance > 0.0 {
+            let excess = excess(v, wa, wb, Wide::splat(sweep.tolerance) * rest);
+            worst = excess.to_array().into_iter().fold(worst, Real::max);
         }
     }
     worst
@@ -214,25 +299,38 @@ mod tests {
     #[test]
     fn lanes_give_the_bits_of_one_bar_at_a_time() {
         if simd::level() < SimdLevel::Avx2 {
-            eprintln!("no AVX2 here (or DRAPE_SIMD): the lanes are not used, nothing to compare");
+            eprintln!("no AVX2 here (or DRAPE_SIMD): the AVX lanes are not used (the portable ones are tested below)");
             return;
         }
-        // Unequal masses and every variant the sweep compiles: the lanes
-        // take weights and β per bar, and the excess.
+        lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass(p, c, mu, sweep, true));
+    }
+
+    #[test]
+    fn portable_lanes_give_the_bits_of_one_bar_at_a_time() {
+        // At any level: the portable octets are what a CPU without AVX2
+        // runs (and `DRAPE_SIMD=portable`).
+        lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass_portable(p, c, mu, sweep, true));
+    }
+
+    /// Three passes of `lanes` against three of one bar at a time, bit for
+    /// bit (positions, weights, multipliers, the worst excess), with unequal
+    /// masses and every variant the sweep compiles: the lanes take weights
+    /// and β per bar, and the excess.
+    fn lanes_match_one_at_a_time(lanes: impl Fn(&mut [Particle], &Colouring, &mut [f32], &Sweep) -> f32) {
         let (positions, bars) = crumpled_sheet(40);
         let weights = unequal_weights(positions.len());
         for sweep in variants() {
             let betas = sweep.betas;
             let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
             assert_eq!(layout.bars.blocks.len(), 1, "a small sheet is one block");
-            let (mut one, mut lanes) = (layout.clone(), layout);
+            let (mut one, mut in_lanes) = (layout.clone(), layout);
             for pass in 0..3 {
-                let (g1, g8) = (&mut one.bars.blocks[0], &mut lanes.bars.blocks[0]);
-                let w1 = relax_pass(&mut one.particles, &g1.colouring, &mut g1.multipliers, &sweep, false);
-                let w8 = relax_pass(&mut lanes.particles, &g8.colouring, &mut g8.multipliers, &sweep, true);
+                let (g1, g8) = (&mut one.bars.blocks[0], &mut in_lanes.bars.blocks[0]);
+                let w1 = relax_pass_portable(&mut one.particles, &g1.colouring, &mut g1.multipliers, &sweep, false);
+                let w8 = lanes(&mut in_lanes.particles, &g8.colouring, &mut g8.multipliers, &sweep);
                 assert_eq!(w1.to_bits(), w8.to_bits(), "worst excess, pass {pass}, β {betas:?}");
             }
-            assert_eq!(bits(&one), bits(&lanes), "β {betas:?}");
+            assert_eq!(bits(&one), bits(&in_lanes), "β {betas:?}");
             // The sweeps moved the sheet (it was stretched 3 %), and most bars
             // went through lanes: colours of at least 8 bars.
             let moved = one.particles.iter().zip(&positions).filter(|(p, x)| p.position != x.to_array()).count();

@@ -11,7 +11,9 @@ use super::{GridLayout, Location, Slot, Tile};
 use crate::sim::contact::ContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, lane, settle, tether};
 use crate::sim::fast::rows::Rows;
-use crate::sim::fast::simd::{self, SimdLevel, dispatch};
+use crate::sim::fast::simd::dispatch;
+#[cfg(target_arch = "x86_64")]
+use crate::sim::fast::simd::{self, SimdLevel};
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
 use crate::sim::step::{Solver, Substep};
 use crate::sim::tether::Tethers;
