@@ -421,7 +421,7 @@ impl Solver for GenericLayout {
         let lanes = if super::simd::level() >= super::simd::SimdLevel::Avx2 {
             format!("8 bars a lane op ({} % paired at both ends, {} % at one)", percent(both), percent(a_end))
         } else {
-            "one bar at a time".to_string()
+            "8 bars a lane op (the portable level's vectors: NEON or SSE)".to_string()
         };
         let lanes = match self.bars.still_share().0 {
             0 => lanes,
