@@ -171,6 +171,14 @@ fn relax_pass_portable(
     worst
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Octets [`relax_octets`] projected on this thread: the bit test below
+    /// counts them, since a pass that never took the lanes would give the
+    /// bits of one bar at a time too.
+    static PORTABLE_OCTETS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
 /// The octets `range` (bars of one colour, a multiple of eight) in the
 /// portable lanes, one octet at a time: each lane computes what
 /// [`relax_one`] computes for its bar (the kernel is one source for `f32`
@@ -192,6 +200,8 @@ fn relax_octets<const XPBD: bool, const FUSED: bool>(
     let mut worst = f32::NEG_INFINITY;
     let octets = a.chunks_exact(LANES).zip(b.chunks_exact(LANES)).zip(rest.chunks_exact(LANES));
     for (((a, b), rest), (kind, mu)) in octets.zip(kind.chunks_exact(LANES).zip(mu.chunks_exact_mut(LANES))) {
+        #[cfg(test)]
+        PORTABLE_OCTETS.with(|n| n.set(n.get() + 1));
         let (ia, ib) = (each_lane!(|l| (a[l] / ROW) as usize), each_lane!(|l| (b[l] / ROW) as usize));
         let [ax, ay, az, wa] = Wide::gather(rows, &ia);
         let [bx, by, bz, wb] = Wide::gather(rows, &ib);
@@ -309,7 +319,19 @@ mod tests {
     fn portable_lanes_give_the_bits_of_one_bar_at_a_time() {
         // At any level: the portable octets are what a CPU without AVX2
         // runs (and `DRAPE_SIMD=portable`).
+        PORTABLE_OCTETS.with(|n| n.set(0));
         lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass_portable(p, c, mu, sweep, true));
+        // The same bits could come from a pass that skipped the lanes: every
+        // live octet went through them, in each of the 4 variants × 3
+        // passes (the passes one bar at a time take none).
+        let (positions, bars) = crumpled_sheet(40);
+        let weights = unequal_weights(positions.len());
+        let colouring = &GenericLayout::new(&positions, &positions, &weights, &bars, None).bars.blocks[0].colouring;
+        let live: usize = (0..colouring.independent)
+            .map(|c| colouring.live(c).0.iter().map(|r| r.len() / LANES).sum::<usize>())
+            .sum();
+        assert!(live * LANES > bars.len() * 8 / 10, "{live} octets for {} bars", bars.len());
+        assert_eq!(PORTABLE_OCTETS.with(|n| n.get()), 4 * 3 * live, "octets through the portable lanes");
     }
 
     /// Three passes of `lanes` against three of one bar at a time, bit for
