@@ -11,19 +11,23 @@
 //! The corners' positions and air velocities are read as 16-byte rows
 //! `[x, y, z, 0]` ([`Rows`]): with AVX2 ([`Avx`](crate::sim::fast::avx::Avx)),
 //! one load a row and a transpose of eight rows in eight shuffles, where the
-//! lanes of [`F32x8`] loaded each coordinate of each corner on its own
-//! (about 100 instructions a triangle); the thirds of the forces go out the
-//! same way, one row a triangle, which the particles sum four lanes at a
-//! time.
+//! lanes of [`F32x8`](crate::sim::fast::kernel::F32x8) loaded each
+//! coordinate of each corner on its own (about 100 instructions a
+//! triangle); the thirds of the forces go out the same way, one row a
+//! triangle, which the particles sum four lanes at a time. Without AVX2 the
+//! lanes are [`Wide`] (NEON or SSE vectors: the array lanes left part of
+//! each octet scalar, and the 256 × 256 cloth's air phase cost about a
+//! sixth more).
 
 #[cfg(test)]
 use glam::Vec3;
 
 use super::super::wind::Air;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, axes, cross, dot, sub};
+use crate::sim::fast::kernel::{LANES, Point, Real, axes, cross, dot, sub};
 use crate::sim::fast::rows::Rows;
 #[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
+use crate::sim::fast::wide_lanes::Wide;
 
 /// A third of each triangle's force (N) into `third_force`, from the
 /// positions `x` and the air's velocity `relative` to each particle (scene
@@ -46,7 +50,9 @@ pub(super) fn third_forces(
         unsafe { avx2::third_forces(air, dt, x, relative, triangles, masses, third_force) };
         return;
     }
-    forces_in::<F32x8>(air, dt, x, relative, triangles, masses, third_force);
+    // Without AVX2: the `wide` crate's vectors (NEON, SSE), where the
+    // array lanes left part of each octet scalar.
+    forces_in::<Wide>(air, dt, x, relative, triangles, masses, third_force);
 }
 
 /// [`third_forces`] on lanes of type `T`.
@@ -237,7 +243,7 @@ mod tests {
         // The portable lanes give the bits of the level's own (AVX2 loads
         // and transposes where the CPU has it).
         let mut portable = vec![[f32::NAN; 4]; 19];
-        forces_in::<F32x8>(&air, 0.01, &x, &relative, &triangles, &masses, &mut portable);
+        forces_in::<Wide>(&air, 0.01, &x, &relative, &triangles, &masses, &mut portable);
         assert_eq!(together.iter().map(bits).collect::<Vec<_>>(), portable.iter().map(bits).collect::<Vec<_>>());
         // The special triangles are what they claim to be: no area, no
         // force; still air (u = 0) no force either; the light one's drag

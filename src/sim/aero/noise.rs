@@ -16,10 +16,13 @@
 use glam::Vec3;
 
 use super::super::wind::Air;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real};
+#[cfg(test)]
+use crate::sim::fast::kernel::F32x8;
+use crate::sim::fast::kernel::{LANES, Point, Real};
 use crate::sim::fast::rows::Rows;
 #[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
+use crate::sim::fast::wide_lanes::Wide;
 
 /// RMS of one component of the noise before scaling, measured
 /// by `noise_has_unit_rms_per_component` over 200 000 samples.
@@ -131,7 +134,8 @@ pub(super) fn relative_air(field: &Field, dt: f32, x: &[[f32; 4]], x_prev: &[[f3
         unsafe { avx2::relative_air(field, dt, x, x_prev, relative) };
         return;
     }
-    relative_in::<F32x8>(field, dt, x, x_prev, relative);
+    // Without AVX2: the `wide` crate's vectors (NEON, SSE).
+    relative_in::<Wide>(field, dt, x, x_prev, relative);
 }
 
 /// [`relative_air`] in AVX registers.
@@ -343,7 +347,7 @@ mod tests {
         // The portable lanes give the level's bits (AVX2 loads and
         // transposes where the CPU has it).
         let mut portable = vec![[f32::NAN; 4]; x.len()];
-        relative_in::<F32x8>(&field, 0.01, &rows(&x), &rows(&x_prev), &mut portable);
+        relative_in::<Wide>(&field, 0.01, &rows(&x), &rows(&x_prev), &mut portable);
         let bits_but_lost = |u: &[[f32; 4]]| {
             u.iter().enumerate().filter(|&(k, _)| k != 100).map(|(_, u)| u.map(f32::to_bits)).collect::<Vec<_>>()
         };

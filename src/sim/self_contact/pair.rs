@@ -32,10 +32,11 @@
 use glam::{Vec3A, Vec4};
 
 use super::SelfContactStep;
-use crate::sim::fast::kernel::{F32x8, LANES, Point, Real, dot, each_lane, scale, sub};
+use crate::sim::fast::kernel::{LANES, Point, Real, dot, each_lane, scale, sub};
 use crate::sim::fast::rows::Rows;
 #[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
+use crate::sim::fast::wide_lanes::Wide;
 
 /// What the phase reads of each slot of the sorted table, one 16-byte row
 /// each (one load a row in the AVX2 path).
@@ -82,7 +83,8 @@ pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: M
         }
         SimdLevel::Portable => {}
     }
-    corrections_in::<F32x8>(slots, own, other, out, step);
+    // Without AVX2: the `wide` crate's vectors (NEON, SSE).
+    corrections_in::<Wide>(slots, own, other, out, step);
 }
 
 /// [`pair_corrections`] on lanes of type `T`: one loop for the pairs
@@ -285,7 +287,7 @@ mod tests {
     #[allow(unsafe_code)]
     fn builds() -> Vec<(&'static str, Build)> {
         let mut builds: Vec<(&'static str, Build)> =
-            vec![("portable", |s, own, other, out, step| corrections_in::<F32x8>(s, own, other, out, step))];
+            vec![("portable", |s, own, other, out, step| corrections_in::<Wide>(s, own, other, out, step))];
         #[cfg(target_arch = "x86_64")]
         {
             if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
