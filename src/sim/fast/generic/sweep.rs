@@ -320,25 +320,19 @@ mod tests {
         // At any level: the portable octets are what a CPU without AVX2
         // runs (and `DRAPE_SIMD=portable`).
         PORTABLE_OCTETS.with(|n| n.set(0));
-        lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass_portable(p, c, mu, sweep, true));
+        let live = lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass_portable(p, c, mu, sweep, true));
         // The same bits could come from a pass that skipped the lanes: every
         // live octet went through them, in each of the 4 variants × 3
         // passes (the passes one bar at a time take none).
-        let (positions, bars) = crumpled_sheet(40);
-        let weights = unequal_weights(positions.len());
-        let colouring = &GenericLayout::new(&positions, &positions, &weights, &bars, None).bars.blocks[0].colouring;
-        let live: usize = (0..colouring.independent)
-            .map(|c| colouring.live(c).0.iter().map(|r| r.len() / LANES).sum::<usize>())
-            .sum();
-        assert!(live * LANES > bars.len() * 8 / 10, "{live} octets for {} bars", bars.len());
         assert_eq!(PORTABLE_OCTETS.with(|n| n.get()), 4 * 3 * live, "octets through the portable lanes");
     }
 
     /// Three passes of `lanes` against three of one bar at a time, bit for
     /// bit (positions, weights, multipliers, the worst excess), with unequal
     /// masses and every variant the sweep compiles: the lanes take weights
-    /// and β per bar, and the excess.
-    fn lanes_match_one_at_a_time(lanes: impl Fn(&mut [Particle], &Colouring, &mut [f32], &Sweep) -> f32) {
+    /// and β per bar, and the excess. Returns the live octets of the sheet's
+    /// colouring (what a pass in lanes takes: more than 8 bars in 10).
+    fn lanes_match_one_at_a_time(lanes: impl Fn(&mut [Particle], &Colouring, &mut [f32], &Sweep) -> f32) -> usize {
         let (positions, bars) = crumpled_sheet(40);
         let weights = unequal_weights(positions.len());
         for sweep in variants() {
@@ -367,6 +361,13 @@ mod tests {
             let others = in_lanes - both - a_end;
             assert!(both > bars.len() / 4 && a_end > bars.len() / 4 && others > 0, "{both} {a_end} {others}");
         }
+        let layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
+        let colouring = &layout.bars.blocks[0].colouring;
+        let live: usize = (0..colouring.independent)
+            .map(|c| colouring.live(c).0.iter().map(|r| r.len() / LANES).sum::<usize>())
+            .sum();
+        assert!(live * LANES > bars.len() * 8 / 10, "{live} octets for {} bars", bars.len());
+        live
     }
 
     #[test]
