@@ -108,20 +108,32 @@ fn the_gusting_flag_flutters_out_of_its_plane_and_runs_the_same_twice() {
     // 0.95 m). Without the air nothing pushes it out: z stays exactly 0
     // (a flag held along one edge is stiff in its own plane, so "its free
     // edge is downwind" would hold without any air at all: 2.35 m).
+    //
+    // Its RMS strain, every 10 steps: the flutter is chaotic (a change in
+    // the last bit of one force takes a different path within ~30 steps),
+    // so one step's figure is a draw: 0.015–0.061 over these 15 steps in
+    // both forms of the air phase (scene order, the grid's lanes) and at
+    // every SIMD level, the mean 0.030–0.032. The mean is held below 0.04
+    // and each step below 0.08; a flag that stretches like rubber (its 15
+    // relaxations a substep cut to 2) reads a mean of 0.10, steps 0.04–0.17.
     let scene = drape::scene::load("flag").unwrap();
     let run = |wind: Wind| {
         let params = SolverParams { wind, ..scene.params.clone() };
         let mut sim = Simulation::new(scene.mesh.clone(), params).unwrap();
-        sim.advance(150).unwrap();
-        sim.positions().to_vec()
+        let mut strains = Vec::new();
+        for _ in 0..15 {
+            sim.advance(10).unwrap();
+            strains.push(drape::sim::metrics::strain(sim.positions(), scene.mesh.bars(), scene.mesh.fixed()).rms);
+        }
+        (sim.positions().to_vec(), strains)
     };
-    let (a, b) = (run(scene.params.wind), run(scene.params.wind));
+    let ((a, strains), (b, _)) = (run(scene.params.wind), run(scene.params.wind));
     assert_eq!(a, b, "the same scene must give the same run");
-    let strain = drape::sim::metrics::strain(&a, scene.mesh.bars(), scene.mesh.fixed());
-    assert!(strain.rms < 0.05, "{strain:?}");
+    let mean = strains.iter().sum::<f32>() / strains.len() as f32;
+    assert!(mean < 0.04 && strains.iter().all(|&s| s < 0.08), "RMS strain every 10 steps: {strains:?}");
     let out_of_plane = |p: &[Vec3]| p.iter().map(|q| q.z.abs()).fold(0.0f32, f32::max);
     assert!(out_of_plane(&a) > 0.3, "the flag stayed flat: {} m", out_of_plane(&a));
-    assert_eq!(out_of_plane(&run(Wind::None)), 0.0);
+    assert_eq!(out_of_plane(&run(Wind::None).0), 0.0);
 }
 
 /// How much a strip of width 0.2 m and length 1 m, hanging from its top

@@ -167,7 +167,6 @@ impl Simulation {
         let projection = if params.inextensible { Some(FastProjection::new(&mesh)?) } else { None };
         let hierarchy = hierarchy(&mesh, &params)?;
         // Nothing below fails: `reused` is taken only now.
-        let aero = aerodynamics(&mesh, &params, &material);
         let fixed = mesh.fixed().to_vec();
         let inverse_mass: Vec<f32> =
             fixed.iter().zip(&material.weight).map(|(&f, &w)| if f { 0.0 } else { w }).collect();
@@ -185,6 +184,7 @@ impl Simulation {
             }
             None => build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers),
         };
+        let aero = aerodynamics(&mesh, &params, &material, solver.as_ref());
         let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
         let edges = mesh.bars().iter().filter(|b| mesh.is_edge(b)).copied().collect();
         Ok(Self {
@@ -264,7 +264,7 @@ impl Simulation {
         let aero = if params.wind.air().is_some() == self.aero.is_some() && material.mass == self.material.mass {
             self.aero.take()
         } else {
-            aerodynamics(&self.mesh, &params, &material)
+            aerodynamics(&self.mesh, &params, &material, self.solver.as_ref())
         };
         self.aero = aero;
         if material.weight != self.material.weight {
@@ -751,6 +751,8 @@ impl Simulation {
         let state = (&self.positions[..], &self.previous[..]);
         let tethers = self.tethers();
         self.solver = build_solver(self.kind, &self.mesh, state, &self.inverse_mass, tethers);
+        // The air phase reads the new solver's lanes, or rows.
+        self.aero = aerodynamics(&self.mesh, &self.params, &self.material, self.solver.as_ref());
     }
 
     fn tethers(&self) -> Option<Tethers> {
@@ -808,8 +810,6 @@ impl Derived {
     }
 }
 
-/// The air phase, when the wind is "air" (the mesh has triangles:
-/// [`units::check_surface`]).
 /// The coarse phase when `p` asks for coarse passes; an error on a mesh
 /// that is not a grid.
 fn hierarchy(mesh: &ClothMesh, p: &SolverParams) -> Result<Option<Hierarchy>, SimError> {
@@ -819,8 +819,10 @@ fn hierarchy(mesh: &ClothMesh, p: &SolverParams) -> Result<Option<Hierarchy>, Si
     Hierarchy::new(mesh).map(Some).ok_or(SimError::CoarseNeedsGrid { passes: p.coarse_passes })
 }
 
-fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived) -> Option<Aerodynamics> {
-    p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass))
+/// The air phase, when the wind is "air" (the mesh has triangles:
+/// [`units::check_surface`]), reading `solver`'s lanes where it has them.
+fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived, solver: &dyn Solver) -> Option<Aerodynamics> {
+    p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass, solver.lanes().map(|lanes| lanes.places()).as_ref()))
 }
 
 /// The colliders placed for substep `k` of the step that starts at `time`;

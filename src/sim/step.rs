@@ -54,7 +54,7 @@ use std::fmt::Debug;
 
 use glam::Vec3;
 
-use super::aero::{AeroStep, Aerodynamics};
+use super::aero::{AeroStep, Aerodynamics, PointLanes};
 use super::contact::ContactStep;
 use super::hierarchy::{CoarseStep, Hierarchy};
 use super::hold::Holds;
@@ -142,6 +142,16 @@ pub trait Solver: Debug + Send + Sync {
             *row = p.extend(0.0).to_array();
         }
     }
+    /// The layout's SIMD lanes, when the air phase can read and write them
+    /// as they are ([`Lanes`]); `None` (the default): the phase reads rows
+    /// in scene order.
+    fn lanes(&self) -> Option<&dyn Lanes> {
+        None
+    }
+    /// [`Solver::lanes`], to write.
+    fn lanes_mut(&mut self) -> Option<&mut dyn Lanes> {
+        None
+    }
     /// Sets one particle's position and previous position.
     fn set_particle(&mut self, index: usize, position: Vec3, previous: Vec3);
     /// Sets one particle's inverse mass (relative to m; 0 fixes it). A write,
@@ -162,6 +172,34 @@ pub trait Solver: Debug + Send + Sync {
     }
     /// A copy behind a new box (solvers are cloned with their simulation).
     fn boxed_clone(&self) -> Box<dyn Solver>;
+}
+
+/// A layout's SIMD lanes as the air phase reads them where they are:
+/// eight places an element (a slot of eight lanes), the elements in tiles
+/// (runs of consecutive elements, each a task of the thread pool), each
+/// particle at one place.
+pub trait Lanes {
+    /// Where each particle is.
+    fn places(&self) -> LanePlaces;
+    /// Each tile's positions x and displacements d = x − x_prev, element
+    /// by element, tile after tile.
+    fn tiles(&self) -> Vec<(&[PointLanes], &[PointLanes])>;
+    /// x ← x + w Δ at every place of weight w > 0 (the bits of
+    /// [`Solver::push`]), Δ of element e from `displacement(e)`, tiles on
+    /// the thread pool where the layout uses it.
+    fn push_lanes(&mut self, displacement: &(dyn Fn(usize) -> PointLanes + Sync));
+}
+
+/// Where a solver keeps each particle in its lanes ([`Lanes::places`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LanePlaces {
+    /// Place of scene particle i: element `place[i] / 8`, lane
+    /// `place[i] % 8`.
+    pub place: Vec<u32>,
+    /// Places in all, padding included (a multiple of 8).
+    pub count: usize,
+    /// Elements in each tile ([`Lanes::tiles`]), tile after tile.
+    pub tiles: Vec<usize>,
 }
 
 impl Clone for Box<dyn Solver> {
@@ -194,13 +232,13 @@ pub struct Phases<'a, 'b> {
 pub fn run_substep(solver: &mut dyn Solver, s: &Substep, phases: Phases) -> u32 {
     let Phases { air, hold, coarse, project, self_contact, contact } = phases;
     // The Euler start (equation 2) ignores every force, the air's too.
-    let push = air.filter(|_| s.first.is_none()).map(|(phase, step)| {
-        solver.read_rows(&mut phase.x, &mut phase.x_prev);
-        phase.compute(step)
+    let air = air.filter(|_| s.first.is_none()).map(|(phase, step)| {
+        phase.compute(solver, step);
+        phase
     });
     solver.integrate(s);
-    if let Some(push) = push {
-        solver.push(push);
+    if let Some(phase) = air {
+        phase.push(solver);
     }
     let mut hold = hold;
     if let Some((holds, weights)) = hold.as_mut() {

@@ -23,6 +23,7 @@
 use glam::Vec3;
 
 use super::super::wind::Air;
+use super::PointLanes;
 use crate::sim::fast::kernel::{LANES, Point, Real, axes, cross, dot, sub};
 use crate::sim::fast::rows::Rows;
 #[cfg(target_arch = "x86_64")]
@@ -53,6 +54,136 @@ pub(super) fn third_forces(
     // Without AVX2: the `wide` crate's vectors (NEON, SSE), where the
     // array lanes left part of each octet scalar.
     forces_in::<Wide>(air, dt, x, relative, triangles, masses, third_force);
+}
+
+/// A third of the force of each triangle of `aligned` octets (N), on
+/// points in lanes ([`PointLanes`], the places of a solver's lanes): corner
+/// k of lane l of octet j is lane l of element `aligned[j][k]`, so each
+/// corner is one element of `x` and `relative` (`points`: positions, the
+/// air's velocity and the element they start at), loaded as it is, and each
+/// octet's thirds go out as lanes too (no transpose either way). `masses`
+/// holds eight a octet. The same bits as [`third_forces`] for the same
+/// corners.
+#[allow(unsafe_code)]
+pub(super) fn aligned_forces(
+    air: &Air,
+    dt: f32,
+    points: (&[PointLanes], &[PointLanes], usize),
+    aligned: &[[u32; 3]],
+    masses: &[f32],
+    third_force: &mut [PointLanes],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd::level() >= SimdLevel::Avx2 {
+        // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
+        // and FMA, the features `avx2::aligned_forces` is compiled for.
+        unsafe { avx2::aligned_forces(air, dt, points, aligned, masses, third_force) };
+        return;
+    }
+    aligned_in::<Wide>(air, dt, points, aligned, masses, third_force);
+}
+
+/// [`aligned_forces`] on lanes of type `T`.
+#[inline(always)]
+fn aligned_in<T: Rows>(
+    air: &Air,
+    dt: f32,
+    (x, relative, first): (&[PointLanes], &[PointLanes], usize),
+    aligned: &[[u32; 3]],
+    masses: &[f32],
+    third_force: &mut [PointLanes],
+) {
+    let (group_masses, _) = masses.as_chunks::<LANES>();
+    for ((out, elements), mass) in third_force.iter_mut().zip(aligned).zip(group_masses) {
+        let corner = |points: &[PointLanes], k: usize| -> Point<T> {
+            let [x, y, z] = &points[elements[k] as usize - first];
+            [T::from_values(*x), T::from_values(*y), T::from_values(*z)]
+        };
+        let corners = [corner(x, 0), corner(x, 1), corner(x, 2)];
+        let air_at = [corner(relative, 0), corner(relative, 1), corner(relative, 2)];
+        let [fx, fy, fz] = corner_force(air, dt, T::from_values(*mass), corners, air_at);
+        *out = [fx.to_values(), fy.to_values(), fz.to_values()];
+    }
+}
+
+/// [`third_forces`] for triangles whose corners are places of a solver's
+/// lanes (element p/8, lane p mod 8), eight at a time, each corner read
+/// place by place: the triangles no aligned octet takes.
+#[allow(unsafe_code)]
+pub(super) fn gathered_forces(
+    air: &Air,
+    dt: f32,
+    x: &[PointLanes],
+    relative: &[PointLanes],
+    triangles: &[[u32; 3]],
+    masses: &[f32],
+    third_force: &mut [[f32; 4]],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd::level() >= SimdLevel::Avx2 {
+        // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
+        // and FMA, the features `avx2::gathered_forces` is compiled for.
+        unsafe { avx2::gathered_forces(air, dt, x, relative, triangles, masses, third_force) };
+        return;
+    }
+    gathered_in::<Wide>(air, dt, x, relative, triangles, masses, third_force);
+}
+
+/// [`gathered_forces`] on lanes of type `T`.
+#[inline(always)]
+fn gathered_in<T: Rows>(
+    air: &Air,
+    dt: f32,
+    x: &[PointLanes],
+    relative: &[PointLanes],
+    triangles: &[[u32; 3]],
+    masses: &[f32],
+    third_force: &mut [[f32; 4]],
+) {
+    // The last group padded with copies of its last triangle, dropped.
+    let gathered =
+        |group: &[[u32; 3]; LANES], mass: &[f32; LANES]| gathered_octet::<T>(air, dt, x, relative, group, mass);
+    let (groups, rest) = triangles.as_chunks::<LANES>();
+    let (outs, last_out) = third_force.as_chunks_mut::<LANES>();
+    let (group_masses, last_masses) = masses.as_chunks::<LANES>();
+    for ((out, group), mass) in outs.iter_mut().zip(groups).zip(group_masses) {
+        *out = gathered(group, mass);
+    }
+    if let (Some(&last), Some(&last_mass)) = (rest.last(), last_masses.last()) {
+        let mut group = [last; LANES];
+        group[..rest.len()].copy_from_slice(rest);
+        let mut mass = [last_mass; LANES];
+        mass[..rest.len()].copy_from_slice(last_masses);
+        last_out.copy_from_slice(&gathered(&group, &mass)[..rest.len()]);
+    }
+}
+
+/// The force each corner of eight triangles takes, as rows, their corners
+/// read place by place (element p/8, lane p mod 8).
+#[inline(always)]
+fn gathered_octet<T: Rows>(
+    air: &Air,
+    dt: f32,
+    x: &[PointLanes],
+    relative: &[PointLanes],
+    group: &[[u32; 3]; LANES],
+    mass: &[f32; LANES],
+) -> [[f32; 4]; LANES] {
+    let corner = |points: &[PointLanes], k: usize| -> Point<T> {
+        let mut lanes = [[0.0; LANES]; 3];
+        for (l, t) in group.iter().enumerate() {
+            let p = t[k] as usize;
+            let element = &points[p / LANES];
+            for c in 0..3 {
+                lanes[c][l] = element[c][p % LANES];
+            }
+        }
+        [T::from_values(lanes[0]), T::from_values(lanes[1]), T::from_values(lanes[2])]
+    };
+    let corners = [corner(x, 0), corner(x, 1), corner(x, 2)];
+    let air_at = [corner(relative, 0), corner(relative, 1), corner(relative, 2)];
+    let [fx, fy, fz] = corner_force(air, dt, T::from_values(*mass), corners, air_at);
+    T::to_rows([fx, fy, fz, T::splat(0.0)])
 }
 
 /// [`third_forces`] on lanes of type `T`.
@@ -111,7 +242,7 @@ fn octet<T: Rows>(
 /// [`third_forces`] in AVX registers.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Air, forces_in};
+    use super::{Air, PointLanes, aligned_in, forces_in, gathered_in};
     use crate::sim::fast::avx::Avx;
 
     #[target_feature(enable = "avx2,fma")]
@@ -125,6 +256,31 @@ mod avx2 {
         third_force: &mut [[f32; 4]],
     ) {
         forces_in::<Avx>(air, dt, x, relative, triangles, masses, third_force);
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn aligned_forces(
+        air: &Air,
+        dt: f32,
+        points: (&[PointLanes], &[PointLanes], usize),
+        aligned: &[[u32; 3]],
+        masses: &[f32],
+        third_force: &mut [PointLanes],
+    ) {
+        aligned_in::<Avx>(air, dt, points, aligned, masses, third_force);
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn gathered_forces(
+        air: &Air,
+        dt: f32,
+        x: &[PointLanes],
+        relative: &[PointLanes],
+        triangles: &[[u32; 3]],
+        masses: &[f32],
+        third_force: &mut [[f32; 4]],
+    ) {
+        gathered_in::<Avx>(air, dt, x, relative, triangles, masses, third_force);
     }
 }
 
@@ -263,5 +419,75 @@ mod tests {
         let heavy = [Vec3::from_slice(&heavy[0][..3])];
         assert!(heavy[0].length() * 3.0 > 10.0 * light, "{} vs {light}", heavy[0].length() * 3.0);
         assert!(together.iter().filter(|f| f.length() > 0.0).count() >= 16);
+    }
+
+    #[test]
+    fn octets_on_lanes_give_the_bits_of_rows() {
+        // Five elements of eight places (40 points). Two aligned octets
+        // (corner k of lane l is lane l of element `octet[k]`) and eleven
+        // triangles gathered place by place (one full group and a padded
+        // one), against the same triangles read as rows: the same bits.
+        let air = Air { velocity: Vec3::new(6.0, 1.0, -2.0), lift: 0.4, drag: 1.2, ..Air::default() };
+        let point = |p: usize| {
+            let t = p as f32;
+            Vec3::new((t * 0.37).sin(), (t * 0.91).cos() * 0.5, t * 0.05)
+        };
+        let velocity = |p: usize| air.velocity - point(p) * 2.0;
+        let lanes = |f: &dyn Fn(usize) -> Vec3| -> Vec<PointLanes> {
+            (0..5).map(|e| [0, 1, 2].map(|k| std::array::from_fn(|l| f(e * LANES + l)[k]))).collect()
+        };
+        let (x, relative) = (lanes(&point), lanes(&velocity));
+        let x_rows = rows(&(0..40).map(point).collect::<Vec<_>>());
+        let relative_rows = rows(&(0..40).map(velocity).collect::<Vec<_>>());
+        let octets = [[0u32, 2, 1], [3, 4, 2]];
+        let octet_masses: Vec<f32> = (0..16).map(|k| 0.02 + k as f32 * 0.001).collect();
+        let mut lane_force = vec![[[f32::NAN; LANES]; 3]; 2];
+        aligned_forces(&air, 0.01, (&x, &relative, 0), &octets, &octet_masses, &mut lane_force);
+        // The same octets from element 1 on (the first element skipped).
+        let mut shifted = vec![[[f32::NAN; LANES]; 3]; 1];
+        aligned_forces(&air, 0.01, (&x[1..], &relative[1..], 1), &octets[1..], &octet_masses[8..], &mut shifted);
+        assert_eq!(shifted[0].map(|c| c.map(f32::to_bits)), lane_force[1].map(|c| c.map(f32::to_bits)));
+        let as_rows: Vec<[u32; 3]> =
+            octets.iter().flat_map(|o| (0..LANES as u32).map(move |l| o.map(|e| e * LANES as u32 + l))).collect();
+        let mut row_force = vec![[f32::NAN; 4]; 16];
+        third_forces(&air, 0.01, &x_rows, &relative_rows, &as_rows, &octet_masses, &mut row_force);
+        for (k, row) in row_force.iter().enumerate() {
+            let lanes = lane_force[k / LANES].map(|c| c[k % LANES].to_bits());
+            assert_eq!(lanes, [row[0], row[1], row[2]].map(f32::to_bits), "octet triangle {k}");
+        }
+        let gathered: Vec<[u32; 3]> = (0..11u32).map(|k| [k * 3 % 40, (k * 7 + 1) % 40, (k * 11 + 5) % 40]).collect();
+        let masses: Vec<f32> = (0..11).map(|k| 0.01 + k as f32 * 0.002).collect();
+        let mut from_lanes = vec![[f32::NAN; 4]; 11];
+        gathered_forces(&air, 0.01, &x, &relative, &gathered, &masses, &mut from_lanes);
+        let mut from_rows = vec![[f32::NAN; 4]; 11];
+        third_forces(&air, 0.01, &x_rows, &relative_rows, &gathered, &masses, &mut from_rows);
+        let bits = |f: &[[f32; 4]]| f.iter().map(|r| r.map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&from_lanes), bits(&from_rows));
+        let zero: Vec<usize> = from_rows
+            .iter()
+            .chain(&row_force)
+            .enumerate()
+            .filter(|(_, f)| f[..3] == [0.0; 3])
+            .map(|(k, _)| k)
+            .collect();
+        // Only gathered triangle 9, [27, 24, 24], has no area, so no force.
+        assert_eq!(zero, [9], "{gathered:?}");
+        // The portable lanes give the level's bits.
+        let mut portable = vec![[[f32::NAN; LANES]; 3]; 2];
+        aligned_in::<Wide>(&air, 0.01, (&x, &relative, 0), &octets, &octet_masses, &mut portable);
+        assert_eq!(portable.map_bits(), lane_force.map_bits());
+        let mut portable = vec![[f32::NAN; 4]; 11];
+        gathered_in::<Wide>(&air, 0.01, &x, &relative, &gathered, &masses, &mut portable);
+        assert_eq!(bits(&portable), bits(&from_lanes));
+    }
+
+    trait MapBits {
+        fn map_bits(&self) -> Vec<u32>;
+    }
+
+    impl MapBits for Vec<PointLanes> {
+        fn map_bits(&self) -> Vec<u32> {
+            self.iter().flatten().flatten().map(|v| v.to_bits()).collect()
+        }
     }
 }

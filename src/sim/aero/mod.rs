@@ -31,27 +31,50 @@
 //! **Turbulence** (`noise.rs`): the air's velocity is the mean wind V plus
 //! gusts of smooth value noise carried along by the wind.
 //!
-//! **How it runs.** The solver writes the positions now and a substep ago as
-//! 16-byte rows `[x, y, z, 0]` ([`Solver::read_rows`](super::step::Solver::read_rows)),
-//! and three loops follow, each in chunks on the thread pool for large
-//! cloths: the air's velocity relative to each particle (eight particles at
-//! a time, rows transposed into lanes, where they share a cell of the
-//! noise: `noise.rs`); the force each corner of a triangle takes, eight
-//! triangles at a time in SIMD lanes (`force.rs`: the same bits as one at a
-//! time); and each particle's share, gathered from its incident triangles.
+//! **How it runs**, in one of two forms, each in three passes (chunks or
+//! tiles on the thread pool for large cloths): the air's velocity relative
+//! to each particle (`noise.rs`), the force each corner of a triangle
+//! takes, eight triangles at a time in SIMD lanes (`force.rs`: the same
+//! bits as one at a time), and each particle's sum of its triangles'
+//! thirds.
+//!
+//! - *In scene order* (`rows.rs`), for any solver: the solver writes the
+//!   positions now and a substep ago as 16-byte rows `[x, y, z, 0]`
+//!   ([`Solver::read_rows`]), eight rows are transposed into lanes for each
+//!   group of particles or triangle corners, and the sums go back through
+//!   [`Solver::push`].
+//! - *In the solver's lanes* (`lanes.rs`), where the solver has lanes the
+//!   phase can read as they are ([`Lanes`](super::step::Lanes): the grid's tiles): the air's
+//!   velocity is computed on each slot of eight lanes where it lies, a
+//!   triangle whose three corners are lane l of three slots for every lane
+//!   l of an octet is computed on whole slots (no transposes; on a grid
+//!   every triangle but those across the edge of a block of columns), and
+//!   each slot's sums are added to the lanes as the solver visits them.
+//!   On the 256 × 256 cloth in gusty air the phase took 0.8 ms a step on
+//!   two threads where scene order took 1.1–1.3 ms (docs/performance.md).
 
-use glam::{Vec3, Vec4};
-use rayon::prelude::*;
-
+use super::fast::kernel::LANES;
 use super::mesh::ClothMesh;
 use super::self_contact::PARALLEL_PARTICLES;
+use super::step::{LanePlaces, Solver};
 use super::units;
 use super::wind::Air;
+use lanes::LaneForm;
 use noise::Field;
 pub use noise::air_velocity;
+use rows::RowForm;
 
 mod force;
+mod lanes;
 mod noise;
+mod rows;
+
+/// Eight points, one array a coordinate (x, y, z), lane l the l-th point:
+/// the form a slot of a solver's lanes holds ([`Lanes::tiles`](super::step::Lanes::tiles)).
+pub type PointLanes = [[f32; LANES]; 3];
+
+/// Triangles a task of the thread pool takes.
+const TRIANGLES: usize = 4096;
 
 /// What one substep's aerodynamics needs.
 #[derive(Clone, Copy, Debug)]
@@ -68,137 +91,113 @@ pub struct AeroStep {
     pub parallel: bool,
 }
 
-/// The phase's state: the triangles and their corners' incidence, each
-/// triangle's mass, and the buffers one substep works in.
+/// The phase's state: the triangles, their masses and the buffers one
+/// substep works in, in scene order or in a solver's lanes.
 #[derive(Clone, Debug)]
 pub struct Aerodynamics {
-    triangles: Vec<[u32; 3]>,
-    /// Incident triangles of particle i: `incident[offsets[i]..offsets[i + 1]]`.
-    offsets: Vec<u32>,
-    incident: Vec<u32>,
-    /// m_t: Σ over corners of m_i · (A_t / 3) / A_i, kg (σ A_t for a density).
-    triangle_mass: Vec<f32>,
-    /// Positions x, scene order, as `[x, y, z, 0]` rows (the triangles load
-    /// a corner in one 16-byte read); filled by the solver
-    /// ([`Solver::read_rows`](super::step::Solver::read_rows)) before
-    /// [`Self::compute`].
-    pub x: Vec<[f32; 4]>,
-    /// Positions one substep ago, the same way.
-    pub x_prev: Vec<[f32; 4]>,
-    /// u_i = v_air(x_i) − v_i per particle, m/s, as `[x, y, z, 0]` rows.
-    relative: Vec<[f32; 4]>,
-    /// A third of each triangle's force, N, as `[x, y, z, 0]` rows.
-    third_force: Vec<[f32; 4]>,
-    push: Vec<Vec3>,
+    /// Particles in the cloth.
+    particles: usize,
+    form: Form,
+}
+
+#[derive(Clone, Debug)]
+enum Form {
+    Rows(RowForm),
+    Lanes(LaneForm),
 }
 
 impl Aerodynamics {
-    /// The phase for `mesh` with these particle masses (kg). A mesh without
-    /// triangles feels no air (it is refused before: [`units::check_surface`]).
-    pub fn new(mesh: &ClothMesh, masses: &[f32]) -> Self {
-        let triangles = mesh.triangles().to_vec();
-        let n = mesh.particle_count();
-        let mut counts = vec![0u32; n + 1];
-        for t in &triangles {
-            for &i in t {
-                counts[i as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            counts[i + 1] += counts[i];
-        }
-        let offsets = counts;
-        let mut fill = offsets.clone();
-        let mut incident = vec![0u32; triangles.len() * 3];
-        for (k, t) in triangles.iter().enumerate() {
-            for &i in t {
-                incident[fill[i as usize] as usize] = k as u32;
-                fill[i as usize] += 1;
-            }
-        }
-        let areas = units::vertex_areas(mesh.positions(), &triangles);
-        let triangle_mass = triangles
-            .iter()
-            .map(|&t| {
-                let third = units::triangle_area(mesh.positions(), t) / 3.0;
-                t.iter().map(|&i| masses[i as usize] * third / areas[i as usize].max(f32::MIN_POSITIVE)).sum()
-            })
-            .collect();
-        Self {
-            offsets,
-            incident,
-            triangle_mass,
-            x: vec![[0.0; 4]; n],
-            x_prev: vec![[0.0; 4]; n],
-            relative: vec![[0.0; 4]; n],
-            third_force: vec![[0.0; 4]; triangles.len()],
-            push: vec![Vec3::ZERO; n],
-            triangles,
+    /// The phase for `mesh` with these particle masses (kg), reading the
+    /// cloth in scene order, or in the solver's lanes when `lanes` says
+    /// where each particle is there ([`Lanes::places`](super::step::Lanes::places)). A mesh without
+    /// triangles feels no air (it is refused before:
+    /// [`units::check_surface`]).
+    pub fn new(mesh: &ClothMesh, masses: &[f32], lanes: Option<&LanePlaces>) -> Self {
+        let masses = triangle_masses(mesh, masses);
+        let form = match lanes {
+            Some(lanes) => Form::Lanes(LaneForm::new(mesh.triangles(), masses, lanes)),
+            None => Form::Rows(RowForm::new(mesh.particle_count(), mesh.triangles(), masses)),
+        };
+        Self { particles: mesh.particle_count(), form }
+    }
+
+    /// Whether the phase reads the solver's lanes (else rows in scene order).
+    pub fn in_lanes(&self) -> bool {
+        matches!(self.form, Form::Lanes(_))
+    }
+
+    /// The share of triangles computed on whole slots of the lanes (0 in
+    /// scene order).
+    pub fn aligned_share(&self) -> f64 {
+        match &self.form {
+            Form::Lanes(lanes) => lanes.aligned_share(),
+            Form::Rows(_) => 0.0,
         }
     }
 
-    /// The displacement (h/n)² F_i / m̄ of every particle (scene order) from
-    /// the air, computed on [`Self::x`] and [`Self::x_prev`]; a particle of
-    /// weight w moves w times it.
-    pub fn compute(&mut self, step: &AeroStep) -> &[Vec3] {
-        let parallel = step.parallel && self.x.len() >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
-        let air = step.air;
-        let gusts = Field::new(&air, step.time as f32);
-        {
-            // Per particle, the air's velocity relative to it,
-            // v_air(x) − (x − x_prev)/(h/n), as rows. Chunks in scene order,
-            // each with its own cell cache (neighbours mostly share a cell of
-            // the noise).
-            let dt = step.dt;
-            type Chunk<'a> = (&'a mut [[f32; 4]], (&'a [[f32; 4]], &'a [[f32; 4]]));
-            let field = |(u, (x, x_prev)): Chunk| noise::relative_air(&gusts, dt, x, x_prev, u);
-            const CHUNK: usize = 2048;
-            if parallel {
-                let x = self.x.par_chunks(CHUNK).zip(self.x_prev.par_chunks(CHUNK));
-                self.relative.par_chunks_mut(CHUNK).zip(x).for_each(field);
-            } else {
-                let x = self.x.chunks(CHUNK).zip(self.x_prev.chunks(CHUNK));
-                self.relative.chunks_mut(CHUNK).zip(x).for_each(field);
-            }
+    /// Computes the displacement (h/n)² F_i / m̄ of every particle from the
+    /// air on the solver's state; a particle of weight w moves w times it
+    /// ([`Self::push`], after integration).
+    pub fn compute(&mut self, solver: &dyn Solver, step: &AeroStep) {
+        let parallel = step.parallel && self.particles >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
+        let gusts = Field::new(&step.air, step.time as f32);
+        match &mut self.form {
+            Form::Rows(rows) => rows.compute(solver, step, &gusts, parallel),
+            Form::Lanes(lanes) => lanes.compute(solver.lanes(), step, &gusts, parallel),
         }
-        {
-            // A third of each triangle's force, eight triangles at a time
-            // (`force`), in chunks of triangles on the pool.
-            const TRIANGLES: usize = 4096;
-            let (x, relative) = (&self.x, &self.relative);
-            type Chunk<'a> = (&'a mut [[f32; 4]], (&'a [[u32; 3]], &'a [f32]));
-            let chunk = |(out, (triangles, masses)): Chunk| {
-                force::third_forces(&air, step.dt, x, relative, triangles, masses, out);
-            };
-            let triangles = self.triangles.chunks(TRIANGLES).zip(self.triangle_mass.chunks(TRIANGLES));
-            if parallel {
-                let triangles = self.triangles.par_chunks(TRIANGLES).zip(self.triangle_mass.par_chunks(TRIANGLES));
-                self.third_force.par_chunks_mut(TRIANGLES).zip(triangles).for_each(chunk);
-            } else {
-                self.third_force.chunks_mut(TRIANGLES).zip(triangles).for_each(chunk);
-            }
-        }
-        {
-            let (offsets, incident, forces) = (&self.offsets, &self.incident, &self.third_force);
-            let scale = step.displacement_per_newton;
-            let gather = |(i, p): (usize, &mut Vec3)| {
-                let range = offsets[i] as usize..offsets[i + 1] as usize;
-                // Four lanes at once (w is 0), each the sum of one coordinate.
-                let sum = incident[range].iter().map(|&k| Vec4::from_array(forces[k as usize])).sum::<Vec4>();
-                *p = sum.truncate() * scale;
-            };
-            if parallel {
-                self.push.par_iter_mut().enumerate().for_each(gather);
-            } else {
-                self.push.iter_mut().enumerate().for_each(gather);
-            }
-        }
-        &self.push
     }
+
+    /// Moves every particle of weight w by w (h/n)² F_i / m̄ (from
+    /// [`Self::compute`]).
+    pub fn push(&self, solver: &mut dyn Solver) {
+        match &self.form {
+            Form::Rows(rows) => rows.push(solver),
+            Form::Lanes(lanes) => {
+                if let Some(solver) = solver.lanes_mut() {
+                    lanes.push(solver);
+                }
+            }
+        }
+    }
+}
+
+/// m_t of each triangle: Σ over corners of m_i · (A_t / 3) / A_i, kg (σ A_t
+/// for a density), from the particles' masses `masses`, kg.
+fn triangle_masses(mesh: &ClothMesh, masses: &[f32]) -> Vec<f32> {
+    let areas = units::vertex_areas(mesh.positions(), mesh.triangles());
+    mesh.triangles()
+        .iter()
+        .map(|&t| {
+            let third = units::triangle_area(mesh.positions(), t) / 3.0;
+            t.iter().map(|&i| masses[i as usize] * third / areas[i as usize].max(f32::MIN_POSITIVE)).sum()
+        })
+        .collect()
+}
+
+/// Compressed rows of `(row, value)` pairs over `rows` rows: the offsets
+/// (row r is `values[offsets[r]..offsets[r + 1]]`) and the values, each
+/// row's in the order given.
+fn csr<T: Copy + Default>(rows: usize, pairs: impl Iterator<Item = (u32, T)> + Clone) -> (Vec<u32>, Vec<T>) {
+    let mut offsets = vec![0u32; rows + 1];
+    for (row, _) in pairs.clone() {
+        offsets[row as usize + 1] += 1;
+    }
+    for r in 0..rows {
+        offsets[r + 1] += offsets[r];
+    }
+    let mut fill = offsets.clone();
+    let mut values = vec![T::default(); offsets[rows] as usize];
+    for (row, value) in pairs {
+        values[fill[row as usize] as usize] = value;
+        fill[row as usize] += 1;
+    }
+    (offsets, values)
 }
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3;
+
     use super::force::triangle_force;
     use super::*;
 

@@ -114,6 +114,10 @@ impl Rows for Avx {
     fn from_values(values: [f32; LANES]) -> Self {
         Avx::from(values)
     }
+    #[inline(always)]
+    fn to_values(self) -> [f32; LANES] {
+        self.lanes()
+    }
     /// `vcmpps` equal-ordered (false for NaN, −0 = 0), then `vmovmskps`.
     #[inline(always)]
     fn equal_bits(self, other: Self) -> u32 {

@@ -174,7 +174,7 @@ pub(crate) use per_lane;
 
 /// Eight `f32` lanes; every operation is a loop over the lanes that the
 /// compiler turns into one vector instruction.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(32))]
 pub(crate) struct F32x8(pub(crate) [f32; LANES]);
 

@@ -19,6 +19,8 @@ pub(crate) trait Rows: Real {
     fn to_rows(lanes: [Self; 4]) -> [[f32; 4]; LANES];
     /// Lanes holding the eight values.
     fn from_values(values: [f32; LANES]) -> Self;
+    /// The eight values the lanes hold (the inverse of [`Rows::from_values`]).
+    fn to_values(self) -> [f32; LANES];
     /// Bit l set where lane l equals lane l of `other` by `f32`'s `==` (a
     /// NaN equals nothing, −0 equals 0): one compare and a move of the
     /// mask with AVX2, where the lanes stored and compared one by one were
@@ -47,6 +49,10 @@ impl Rows for F32x8 {
     #[inline(always)]
     fn from_values(values: [f32; LANES]) -> Self {
         F32x8(values)
+    }
+    #[inline(always)]
+    fn to_values(self) -> [f32; LANES] {
+        self.0
     }
     #[inline(always)]
     fn equal_bits(self, other: Self) -> u32 {

@@ -109,6 +109,10 @@ impl Rows for f32x8 {
         f32x8::from(values)
     }
     #[inline(always)]
+    fn to_values(self) -> [f32; LANES] {
+        self.to_array()
+    }
+    #[inline(always)]
     fn equal_bits(self, other: Self) -> u32 {
         self.simd_eq(other).to_bitmask()
     }

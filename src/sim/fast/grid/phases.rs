@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
 use super::{GridLayout, Location, Slot, Tile};
+use crate::sim::aero::PointLanes;
 use crate::sim::contact::ContactStep;
 use crate::sim::fast::kernel::{F32x8, LANES, Real, Shares, integrate, lane, settle, tether};
 use crate::sim::fast::rows::Rows;
@@ -15,7 +16,7 @@ use crate::sim::fast::simd::dispatch;
 #[cfg(target_arch = "x86_64")]
 use crate::sim::fast::simd::{self, SimdLevel};
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
-use crate::sim::step::{Solver, Substep};
+use crate::sim::step::{LanePlaces, Lanes, Solver, Substep};
 use crate::sim::tether::Tethers;
 
 /// Particles a task of the thread pool takes when the lanes are copied to
@@ -292,6 +293,14 @@ impl Solver for GridLayout {
         self.parallel()
     }
 
+    fn lanes(&self) -> Option<&dyn Lanes> {
+        Some(self)
+    }
+
+    fn lanes_mut(&mut self) -> Option<&mut dyn Lanes> {
+        Some(self)
+    }
+
     fn describe(&self) -> String {
         format!(
             "lanes: {}, {}{}",
@@ -303,6 +312,59 @@ impl Solver for GridLayout {
 
     fn boxed_clone(&self) -> Box<dyn Solver> {
         Box::new(self.clone())
+    }
+}
+
+/// The air phase reads the tiles as they are: tile t's slot s is element
+/// t · slots + s (every tile has as many slots), lane l of it place
+/// 8 (t · slots + s) + l.
+impl Lanes for GridLayout {
+    fn places(&self) -> LanePlaces {
+        let slots = self.tiles.first().map_or(0, |t| t.position.len());
+        let place = self
+            .locations
+            .iter()
+            .map(|loc| ((loc.tile as usize * slots + loc.slot as usize) * LANES) as u32 + u32::from(loc.lane));
+        LanePlaces {
+            place: place.collect(),
+            count: self.tiles.len() * slots * LANES,
+            tiles: vec![slots; self.tiles.len()],
+        }
+    }
+
+    fn tiles(&self) -> Vec<(&[PointLanes], &[PointLanes])> {
+        self.tiles
+            .iter()
+            .map(|t| (bytemuck::cast_slice(&t.position[..]), bytemuck::cast_slice(&t.displacement[..])))
+            .collect()
+    }
+
+    /// Eight lanes at a time, tile by tile.
+    fn push_lanes(&mut self, displacement: &(dyn Fn(usize) -> PointLanes + Sync)) {
+        let slots = self.tiles.first().map_or(0, |t| t.position.len());
+        let push = |(t, tile): (usize, &mut Tile)| push_tile(tile, t * slots, displacement);
+        if self.parallel() {
+            self.tiles.par_iter_mut().enumerate().for_each(push);
+        } else {
+            self.tiles.iter_mut().enumerate().for_each(push);
+        }
+    }
+}
+
+dispatch! {
+    /// The air's displacements added to one tile's lanes.
+    fn push_tile(tile: &mut Tile, first: usize, displacement: &(dyn Fn(usize) -> PointLanes + Sync)) = push_tile_body, best = ["x86_64+avx2+fma"]
+}
+
+#[inline(always)]
+fn push_tile_body(tile: &mut Tile, first: usize, displacement: &(dyn Fn(usize) -> PointLanes + Sync)) {
+    let zero = F32x8::splat(0.0);
+    for (s, (p, &w)) in tile.position.iter_mut().zip(&tile.weight).enumerate() {
+        let delta = displacement(first + s);
+        for k in 0..3 {
+            // Padding and fixed particles weigh 0 and stay (a NaN Δ too).
+            p[k] = F32x8::if_greater(w, zero, p[k] + w * F32x8(delta[k]), p[k]);
+        }
     }
 }
 

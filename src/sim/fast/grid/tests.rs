@@ -471,3 +471,68 @@ fn scene_rows_are_read_out_of_the_lanes_with_the_bits_of_each_particle_looked_up
         assert!(x.iter().zip(&start).all(|(a, b)| a.distance(*b) < 1e-5), "{what}");
     }
 }
+
+#[test]
+fn the_air_on_the_lanes_moves_each_particle_as_in_scene_order() {
+    // 90 × 12: two tiles of eight lanes of 6 columns, 6 columns of padding.
+    // 130 × 130: large enough for the thread pool (tiles in parallel).
+    for (columns, rows) in [(90, 12), (130, 130)] {
+        air_on_lanes_against_rows(columns, rows);
+    }
+}
+
+fn air_on_lanes_against_rows(columns: u32, rows: u32) {
+    use crate::sim::aero::{AeroStep, Aerodynamics};
+    use crate::sim::step::Lanes;
+    use crate::sim::wind::Air;
+    // A grid hung by its top row. Positions and displacements are
+    // multiples of 1/8192 m, so x − (x − d) is d exactly: the scene-order
+    // form (rows, through the reference solver) and the lanes form (the
+    // grid's tiles) see the same velocities and compute each triangle's
+    // force with the same bits. They differ only in the order each
+    // particle's ≤ 6 thirds are summed, a few ulp of the sum: 1e-5 of the
+    // largest displacement, plus 2 ulp of a position for the push's own
+    // rounding, bounds it; a triangle missed or counted twice moves a
+    // particle by a sixth of its push or more.
+    let mesh =
+        Grid { columns, rows, spacing: 1.0 / 64.0, pins: Pins::TopRow, ..Grid::default() }.build().expect("valid grid");
+    let n = mesh.particle_count();
+    let x: Vec<Vec3> = mesh
+        .positions()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| *p + Vec3::new(0.0, 0.0, ((i * 37) % 64) as f32 / 1024.0))
+        .collect();
+    let d = |i: usize| Vec3::new((i % 7) as f32, -((i % 5) as f32), (i % 3) as f32) / 8192.0;
+    let previous: Vec<Vec3> = x.iter().enumerate().map(|(i, p)| *p - d(i)).collect();
+    let w = weights(&mesh);
+    let mut reference = ReferenceSolver::new(&x, &previous, &w, mesh.bars(), None);
+    let mut layout = GridLayout::new(&mesh, &x, &previous, &w, None).expect("a grid");
+    let masses = vec![0.001; n];
+    let mut scene = Aerodynamics::new(&mesh, &masses, None);
+    let mut lanes = Aerodynamics::new(&mesh, &masses, Some(&layout.places()));
+    assert!(!scene.in_lanes() && lanes.in_lanes());
+    assert!(lanes.aligned_share() > 0.7, "{} {}", lanes.aligned_share(), layout.describe());
+    let air = Air { velocity: Vec3::new(5.0, 1.0, 3.0), gusts: 0.3, lift: 0.3, ..Air::default() };
+    let step = AeroStep { air, time: 0.4, dt: 0.01, displacement_per_newton: 0.01 * 0.01 / 0.001, parallel: true };
+    scene.compute(&reference, &step);
+    scene.push(&mut reference);
+    lanes.compute(&layout, &step);
+    lanes.push(&mut layout);
+    let read = |solver: &dyn Solver| {
+        let (mut p, mut q) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        solver.read(&mut p, &mut q);
+        p
+    };
+    let (by_rows, by_lanes) = (read(&reference), read(&layout));
+    let largest = by_rows.iter().zip(&x).map(|(p, x)| (*p - *x).length()).fold(0.0, f32::max);
+    assert!(largest > 1e-4, "the air moved the cloth by {largest} m at most");
+    for i in 0..n {
+        let tolerance = 1e-5 * largest + 2.0 * f32::EPSILON * x[i].abs().max_element();
+        let gap = (by_rows[i] - by_lanes[i]).abs().max_element();
+        assert!(gap <= tolerance, "particle {i}: {} by rows, {} by lanes", by_rows[i], by_lanes[i]);
+        if mesh.fixed()[i] {
+            assert_eq!(by_lanes[i], x[i], "a pinned particle stays");
+        }
+    }
+}
