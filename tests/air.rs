@@ -110,7 +110,7 @@ fn the_gusting_flag_flutters_out_of_its_plane_and_runs_the_same_twice() {
     // edge is downwind" would hold without any air at all: 2.35 m).
     //
     // Its RMS strain, every 10 steps: the flutter is chaotic (a change in
-    // the last bit of one force takes a different path within ~30 steps),
+    // the last bit of one force grows to millimetres within ~20 steps),
     // so one step's figure is a draw: 0.015–0.061 over these 15 steps in
     // both forms of the air phase (scene order, the grid's lanes) and at
     // every SIMD level, the mean 0.030–0.032. The mean is held below 0.04
