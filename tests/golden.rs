@@ -43,9 +43,12 @@ fn seed_bars() {
 
 #[test]
 fn flag() {
-    // 0.8 s of the air flag: streaming out in its first gusts, before the
-    // flutter grows chaotic (a later frame would move with every rounding
-    // change of the air phase, not only with real changes).
+    // 0.8 s of the air flag: streaming out in its first gusts. The
+    // flutter is chaotic: a change in the air phase's last bits (the
+    // eighteenth session's lanes form sums each particle's forces in
+    // another order) curls the free corner differently by this frame, so
+    // such a change re-blesses it after a look (a later frame would move
+    // far more).
     common::assert_golden("flag", &render_scene("flag", 80, false));
 }
 
