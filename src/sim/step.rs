@@ -196,8 +196,6 @@ pub struct LanePlaces {
     /// Place of scene particle i: element `place[i] / 8`, lane
     /// `place[i] % 8`.
     pub place: Vec<u32>,
-    /// Places in all, padding included (a multiple of 8).
-    pub count: usize,
     /// Elements in each tile ([`Lanes::tiles`]), tile after tile.
     pub tiles: Vec<usize>,
 }

@@ -78,7 +78,8 @@ impl LaneForm {
         // may lack its triangle where its three places hold no particle (a
         // tile's padding): it computes a triangle of padding, of mass 0,
         // whose force the solver never adds (padding weighs 0).
-        let mut occupied = vec![false; lanes.count];
+        let elements: usize = lanes.tiles.iter().sum();
+        let mut occupied = vec![false; elements * LANES];
         for &p in &lanes.place {
             occupied[p as usize] = true;
         }
@@ -132,7 +133,6 @@ impl LaneForm {
         let octet_masses = groups.iter().flat_map(|(_, octet)| octet.map(|k| k.map_or(0.0, |k| masses[k as usize])));
         let triangle_mass = octet_masses.chain(rest.iter().map(|&k| masses[k as usize])).collect();
         // Per element, its aligned octets, then its other triangles.
-        let elements = lanes.count.div_ceil(LANES);
         let corners = aligned.iter().enumerate().flat_map(|(j, octet)| octet.map(|e| (e, j as u32)));
         let (octet_offsets, octets) = csr(elements, corners);
         let extra = rest

@@ -90,34 +90,49 @@ impl Field {
     /// them between neighbouring particles.
     #[inline(always)]
     pub(super) fn at_lanes<T: Rows>(&self, x: Point<T>, cell: &mut Cell) -> Option<(Point<T>, usize)> {
-        let mean = [T::splat(self.mean.x), T::splat(self.mean.y), T::splat(self.mean.z)];
         if self.steady {
-            return Some((mean, LANES));
+            return Some((self.mean_lanes(), LANES));
         }
+        let (q, floor) = self.lattice_point(x);
+        // A lane is in lane 0's cell when its floors equal lane 0's (NaN
+        // never does; −0 and 0 are one cell, and each lane keeps its own
+        // floor in t).
+        let first = [floor[0].first(), floor[1].first(), floor[2].first()];
+        let shared = in_cell(&floor, first).trailing_ones() as usize;
+        if shared == 0 {
+            return None;
+        }
+        let c = cell.corners_of(first.map(|f| f as i32));
+        Some((self.blend(&splat_corners(c), q, floor), shared))
+    }
+
+    /// V in every lane.
+    #[inline(always)]
+    fn mean_lanes<T: Real>(&self) -> Point<T> {
+        [T::splat(self.mean.x), T::splat(self.mean.y), T::splat(self.mean.z)]
+    }
+
+    /// The points' coordinates q in the lattice of the noise, and their
+    /// floors (the cells).
+    #[inline(always)]
+    fn lattice_point<T: Real>(&self, x: Point<T>) -> (Point<T>, Point<T>) {
         let (shift, drift, scale) = (self.shift.to_array(), self.drift.to_array(), T::splat(self.scale));
         let q: Point<T> = [
             (x[0] - T::splat(shift[0])) / scale + T::splat(drift[0]),
             (x[1] - T::splat(shift[1])) / scale + T::splat(drift[1]),
             (x[2] - T::splat(shift[2])) / scale + T::splat(drift[2]),
         ];
-        let floor = [q[0].floor(), q[1].floor(), q[2].floor()];
-        // A lane is in lane 0's cell when its floors equal lane 0's (NaN
-        // never does; −0 and 0 are one cell, and each lane keeps its own
-        // floor in t).
-        let first = [floor[0].first(), floor[1].first(), floor[2].first()];
-        let same = floor[0].equal_bits(T::splat(first[0]))
-            & floor[1].equal_bits(T::splat(first[1]))
-            & floor[2].equal_bits(T::splat(first[2]));
-        let shared = same.trailing_ones() as usize;
-        if shared == 0 {
-            return None;
-        }
-        let c = cell.corners_of(first.map(|f| f as i32));
+        (q, [q[0].floor(), q[1].floor(), q[2].floor()])
+    }
+
+    /// V + amplitude · N at lattice points q in cells `floor`, from each
+    /// lane's corner values.
+    #[inline(always)]
+    fn blend<T: Real>(&self, corners: &[Point<T>; 8], q: Point<T>, floor: Point<T>) -> Point<T> {
         let t = [fade(q[0] - floor[0]), fade(q[1] - floor[1]), fade(q[2] - floor[2])];
-        let noise = interpolate(c, t);
-        let amplitude = T::splat(self.amplitude);
-        let out = [mean[0] + noise[0] * amplitude, mean[1] + noise[1] * amplitude, mean[2] + noise[2] * amplitude];
-        Some((out, shared))
+        let noise = interpolate_lanes(corners, t);
+        let (mean, amplitude) = (self.mean_lanes::<T>(), T::splat(self.amplitude));
+        [mean[0] + noise[0] * amplitude, mean[1] + noise[1] * amplitude, mean[2] + noise[2] * amplitude]
     }
 
     /// v_air at eight points in lanes, whichever cells of the noise they
@@ -130,29 +145,16 @@ impl Field {
     /// scene order mostly share one ([`Self::at_lanes`]).
     #[inline(always)]
     pub(super) fn at_any_lanes<T: Rows>(&self, x: Point<T>, cell: &mut Cell) -> Point<T> {
-        let mean = [T::splat(self.mean.x), T::splat(self.mean.y), T::splat(self.mean.z)];
         if self.steady {
-            return mean;
+            return self.mean_lanes();
         }
-        let (shift, drift, scale) = (self.shift.to_array(), self.drift.to_array(), T::splat(self.scale));
-        let q: Point<T> = [
-            (x[0] - T::splat(shift[0])) / scale + T::splat(drift[0]),
-            (x[1] - T::splat(shift[1])) / scale + T::splat(drift[1]),
-            (x[2] - T::splat(shift[2])) / scale + T::splat(drift[2]),
-        ];
-        let floor = [q[0].floor(), q[1].floor(), q[2].floor()];
+        let (q, floor) = self.lattice_point(x);
         let first = [floor[0].first(), floor[1].first(), floor[2].first()];
-        let in_cell = |f: [f32; 3]| {
-            floor[0].equal_bits(T::splat(f[0]))
-                & floor[1].equal_bits(T::splat(f[1]))
-                & floor[2].equal_bits(T::splat(f[2]))
-        };
         let all = (1u32 << LANES) - 1;
-        let same = in_cell(first);
+        let same = in_cell(&floor, first);
         let corners: [Point<T>; 8] = if same == all {
             // One cell (the common case): its values in every lane.
-            let c = cell.corners_of([first[0] as i32, first[1] as i32, first[2] as i32]);
-            std::array::from_fn(|i| [T::splat(c[i].x), T::splat(c[i].y), T::splat(c[i].z)])
+            splat_corners(cell.corners_of([first[0] as i32, first[1] as i32, first[2] as i32]))
         } else {
             // Cell after cell, each lane taking its own cell's values; a lane
             // no cell takes (a NaN) keeps NaN.
@@ -162,7 +164,7 @@ impl Field {
             while left != 0 {
                 let l = left.trailing_zeros() as usize;
                 let f = [floors[0][l], floors[1][l], floors[2][l]];
-                let same = in_cell(f);
+                let same = in_cell(&floor, f);
                 left &= !same & !(1 << l);
                 if same == 0 {
                     continue;
@@ -182,11 +184,14 @@ impl Field {
             }
             corners
         };
-        let t = [fade(q[0] - floor[0]), fade(q[1] - floor[1]), fade(q[2] - floor[2])];
-        let noise = interpolate_lanes(&corners, t);
-        let amplitude = T::splat(self.amplitude);
-        [mean[0] + noise[0] * amplitude, mean[1] + noise[1] * amplitude, mean[2] + noise[2] * amplitude]
+        self.blend(&corners, q, floor)
     }
+}
+
+/// Bit l set where lane l's cell (its floors) is the cell `f`.
+#[inline(always)]
+fn in_cell<T: Rows>(floor: &Point<T>, f: [f32; 3]) -> u32 {
+    floor[0].equal_bits(T::splat(f[0])) & floor[1].equal_bits(T::splat(f[1])) & floor[2].equal_bits(T::splat(f[2]))
 }
 
 /// u_i = v_air(x_i) − (x_i − x_prev_i)/`dt` for each particle into
@@ -373,7 +378,14 @@ fn value_noise(q: Vec3, cell: &mut Cell) -> Vec3 {
 /// of points in one cell, the same operations in the same order.
 #[inline(always)]
 fn interpolate<T: Real>(c: &[Vec3; 8], t: Point<T>) -> Point<T> {
-    interpolate_lanes(&c.map(|c| [T::splat(c.x), T::splat(c.y), T::splat(c.z)]), t)
+    interpolate_lanes(&splat_corners(c), t)
+}
+
+/// One cell's corner values in every lane (`from_fn`: an array's `map`
+/// was left out of line).
+#[inline(always)]
+fn splat_corners<T: Real>(c: &[Vec3; 8]) -> [Point<T>; 8] {
+    std::array::from_fn(|i| [T::splat(c[i].x), T::splat(c[i].y), T::splat(c[i].z)])
 }
 
 /// [`interpolate`] with each lane's own corner values (lanes in several

@@ -325,11 +325,7 @@ impl Lanes for GridLayout {
             .locations
             .iter()
             .map(|loc| ((loc.tile as usize * slots + loc.slot as usize) * LANES) as u32 + u32::from(loc.lane));
-        LanePlaces {
-            place: place.collect(),
-            count: self.tiles.len() * slots * LANES,
-            tiles: vec![slots; self.tiles.len()],
-        }
+        LanePlaces { place: place.collect(), tiles: vec![slots; self.tiles.len()] }
     }
 
     fn tiles(&self) -> Vec<(&[PointLanes], &[PointLanes])> {
