@@ -188,10 +188,9 @@ impl Simulation {
             }
             None => (build_solver(kind, &mesh, (&positions, &previous), &inverse_mass, tethers), None),
         };
-        let aero = match aero {
-            Some(aero) if params.wind.air().is_some() => Some(aero),
-            _ => aerodynamics(&mesh, &params, &material, solver.as_ref()),
-        };
+        // A kept phase exists only where the air blows (the reset's own
+        // parameters made it).
+        let aero = aero.or_else(|| aerodynamics(&mesh, &params, &material, solver.as_ref()));
         let self_contact = params.self_collision.then(|| SelfContact::new(mesh.positions()));
         let edges = mesh.bars().iter().filter(|b| mesh.is_edge(b)).copied().collect();
         Ok(Self {

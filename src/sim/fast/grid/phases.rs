@@ -315,12 +315,19 @@ impl Solver for GridLayout {
     }
 }
 
+impl GridLayout {
+    /// Slots in each tile (every tile has as many).
+    fn slots_per_tile(&self) -> usize {
+        self.tiles.first().map_or(0, |t| t.position.len())
+    }
+}
+
 /// The air phase reads the tiles as they are: tile t's slot s is element
 /// t · slots + s (every tile has as many slots), lane l of it place
 /// 8 (t · slots + s) + l.
 impl Lanes for GridLayout {
     fn places(&self) -> LanePlaces {
-        let slots = self.tiles.first().map_or(0, |t| t.position.len());
+        let slots = self.slots_per_tile();
         let place = self
             .locations
             .iter()
@@ -337,7 +344,7 @@ impl Lanes for GridLayout {
 
     /// Eight lanes at a time, tile by tile.
     fn push_lanes(&mut self, displacement: &(dyn Fn(usize) -> PointLanes + Sync)) {
-        let slots = self.tiles.first().map_or(0, |t| t.position.len());
+        let slots = self.slots_per_tile();
         let push = |(t, tile): (usize, &mut Tile)| push_tile(tile, t * slots, displacement);
         if self.parallel() {
             self.tiles.par_iter_mut().enumerate().for_each(push);
