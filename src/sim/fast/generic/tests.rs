@@ -272,7 +272,8 @@ fn octets_between_fixed_particles_are_skipped_with_the_bits_of_projecting_them()
 #[test]
 fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
     // The 130 × 130 sheet laid flat at y = 0 (12.9 m square about the
-    // origin), at rest (x0 = x), every 97th particle fixed. A ball of
+    // origin), each particle arriving from its own start x0 (below), every
+    // 97th particle fixed. A ball of
     // radius 5 with its top at y = 0.02 reaches the particles within about
     // 0.45 m of the middle, and a ceiling at y = 0.035 (normal −y) is off
     // every chunk's box (all at y = 0: 0.035 is farther than the thickness
@@ -289,6 +290,15 @@ fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
     for (q, p) in layout.predicted.iter_mut().zip(&layout.particles) {
         *q = p.position;
     }
+    // Each particle came from its own start x0 = x − d, up to 2 cm away in
+    // each axis and different in each (so lanes that took a start's axes
+    // or particles out of order would sweep other paths into the ball).
+    for (k, d) in layout.displacement.iter_mut().enumerate() {
+        let k = k as f32;
+        *d = [0.02 * (0.37 * k).sin(), 0.02 * (1.31 * k).cos(), 0.02 * (0.73 * k).sin()];
+    }
+    let (mut x, mut starts) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    layout.read(&mut x, &mut starts);
     let colliders = [
         Collider::fixed(Shape::Sphere { radius: 5.0 }, Pose { translation: Vec3::Y * -4.98, ..Pose::default() }),
         Collider::fixed(Shape::Plane { normal: -Vec3::Y }, Pose { translation: Vec3::Y * 0.035, ..Pose::default() }),
@@ -308,7 +318,7 @@ fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
     };
     let all = contact.all();
     let expected: Vec<Vec3> = (0..n)
-        .map(|i| if weights[i] > 0.0 { contact.resolve(&all, positions[i], positions[i]) } else { positions[i] })
+        .map(|i| if weights[i] > 0.0 { contact.resolve(&all, starts[i], positions[i]) } else { positions[i] })
         .collect();
     let bits = |x: &[Vec3]| x.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
     for threads in [1, 2] {
