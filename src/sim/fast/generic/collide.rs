@@ -52,7 +52,12 @@ dispatch! {
 
 #[inline(always)]
 fn collide_chunk_body(particles: &mut [Particle], d: &[[f32; 3]], q: &[[f32; 3]], contact: &ContactStep) {
-    let Some((lo, hi)) = moving_box(particles, d, q) else {
+    // Decided once a chunk: the box and the octets in AVX2 registers.
+    #[cfg(target_arch = "x86_64")]
+    let registers = simd::level() >= SimdLevel::Avx2;
+    #[cfg(not(target_arch = "x86_64"))]
+    let registers = false;
+    let Some((lo, hi)) = moving_box(particles, d, q, registers) else {
         return;
     };
     let near = contact.near(lo, hi);
@@ -60,7 +65,7 @@ fn collide_chunk_body(particles: &mut [Particle], d: &[[f32; 3]], q: &[[f32; 3]]
         return;
     }
     for ((rows, d), q) in particles.chunks_mut(LANES).zip(d.chunks(LANES)).zip(q.chunks(LANES)) {
-        let (mut x, x0, moving) = octet(rows, d, q);
+        let (mut x, x0, moving) = octet(rows, d, q, registers);
         let lanes = contact.collide_lanes(&near, (lo, hi), || moving, &x0, &mut x);
         for (l, row) in rows.iter_mut().enumerate().filter(|(l, _)| lanes & (1 << l) != 0) {
             row.position = lane(&x, l).to_array();
@@ -69,13 +74,15 @@ fn collide_chunk_body(particles: &mut [Particle], d: &[[f32; 3]], q: &[[f32; 3]]
 }
 
 /// The box of the moving particles' start positions x0 = q − d and
-/// positions x, or None when none moves: with AVX2 eight particles at a
-/// time in lanes ([`avx2::moving_box`]), else one at a time.
+/// positions x, or None when none moves: with `registers` (the level is
+/// AVX2 or above) eight particles at a time in lanes
+/// ([`avx2::moving_box`]), else one at a time.
 #[inline(always)]
 #[allow(unsafe_code)]
-fn moving_box(particles: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> Option<(Vec3, Vec3)> {
+#[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
+fn moving_box(particles: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]], registers: bool) -> Option<(Vec3, Vec3)> {
     #[cfg(target_arch = "x86_64")]
-    if simd::level() >= SimdLevel::Avx2 {
+    if registers {
         // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
         // and FMA, the features the function is compiled for.
         return unsafe { avx2::moving_box(particles, d, q) };
@@ -86,8 +93,6 @@ fn moving_box(particles: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> Option<
 /// [`moving_box`] one particle at a time.
 #[inline(always)]
 fn moving_box_scalar(particles: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> Option<(Vec3, Vec3)> {
-    // Plain loops over arrays: built with `std::array::from_fn` and `Vec3`,
-    // the lanes went through the stack element by element.
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
     for ((p, d), q) in particles.iter().zip(d).zip(q) {
         if p.weight > 0.0 {
@@ -102,13 +107,14 @@ fn moving_box_scalar(particles: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> 
 }
 
 /// Eight particles in lanes: positions x, start positions x0 = q − d, and
-/// which of them move (bit l: lane l's weight > 0); with AVX2 a whole
-/// octet in registers ([`avx2::octet`]), else lane by lane.
+/// which of them move (bit l: lane l's weight > 0); with `registers` a
+/// whole octet in registers ([`avx2::octet`]), else lane by lane.
 #[inline(always)]
 #[allow(unsafe_code)]
-fn octet(rows: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> (Point<F32x8>, Point<F32x8>, u8) {
+#[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
+fn octet(rows: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]], registers: bool) -> (Point<F32x8>, Point<F32x8>, u8) {
     #[cfg(target_arch = "x86_64")]
-    if rows.len() == LANES && simd::level() >= SimdLevel::Avx2 {
+    if registers && rows.len() == LANES {
         // SAFETY: as in `moving_box`; the octet is whole.
         return unsafe { avx2::octet(rows, d, q) };
     }
@@ -119,6 +125,9 @@ fn octet(rows: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> (Point<F32x8>, Po
 /// of weight 0 at the origin: never moved, never written.
 #[inline(always)]
 fn octet_scalar(rows: &[Particle], d: &[[f32; 3]], q: &[[f32; 3]]) -> (Point<F32x8>, Point<F32x8>, u8) {
+    // Plain loops over arrays (as in `moving_box_scalar`): built with
+    // `std::array::from_fn` and `Vec3`, the lanes went through the stack
+    // element by element.
     let (mut x, mut x0) = ([F32x8([0.0; LANES]); 3], [F32x8([0.0; LANES]); 3]);
     let mut moving = 0u8;
     for (l, ((p, d), q)) in rows.iter().zip(d).zip(q).enumerate() {
@@ -205,7 +214,7 @@ mod avx2 {
                 hi[i] = _mm256_blendv_ps(hi[i], greatest, moving);
             }
         }
-        let rest = moving_box_scalar(&particles[whole..], &d[whole.min(d.len())..], &q[whole.min(q.len())..]);
+        let rest = moving_box_scalar(&particles[whole..], &d[whole..], &q[whole..]);
         let (mut l, mut h) =
             rest.map_or(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |(l, h)| (l.to_array(), h.to_array()));
         for i in 0..3 {
