@@ -19,7 +19,9 @@
 //!   particle) and gives the CPU independent work.
 //! - **Threads** (grids of at least 16 384 particles): the cloth is cut into
 //!   tiles of eight blocks of columns, swept in parallel with rayon, even
-//!   tiles then odd ones. The tiling depends on the grid only, so every
+//!   tiles then odd ones, a step's passes as a graph of tasks (`graph`,
+//!   which the coloured layout's blocks use too) so that a tile waits only
+//!   on its neighbours. The tiling depends on the grid only, so every
 //!   thread count gives the same bits.
 //! - **Any mesh** (module `generic`): bars are greedily coloured and relaxed
 //!   colour by colour, eight bars of a colour in one AVX2 register (the one
@@ -52,6 +54,7 @@
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx;
 mod generic;
+mod graph;
 mod grid;
 pub(crate) mod kernel;
 pub(crate) mod rows;

@@ -21,7 +21,7 @@
 //! touches blocks k and k + 1 only), then those after odd blocks, then the
 //! last group on one thread: three rounds, each ended by a barrier. A
 //! step with no tolerance runs its passes instead as a graph of tasks
-//! ([`super::graph`]): each block's next pass starts as soon as its own two
+//! ([`crate::sim::fast::graph`]): each block's next pass starts as soon as its own two
 //! seams are done, in the same order for every particle, so with the same
 //! bits. The bars between blocks had been one group
 //! relaxed on one thread while the other idled (2.3 % of disc-183's bars,
@@ -45,9 +45,9 @@ use rayon::prelude::*;
 
 use super::Particle;
 use super::colouring::Colouring;
-use super::graph::{self, Schedule, Task};
 use super::sweep::{Sweep, relax_pass};
 use crate::sim::fast::THREAD_SHARES;
+use crate::sim::fast::graph::{self, Chain, Schedule, Task};
 use crate::sim::mesh::Bar;
 
 /// Particles a block is sized for (16 bytes each: 256 KiB): the block
@@ -312,7 +312,7 @@ unsafe impl Sync for Nodes {}
 
 impl BlockedBars {
     /// `passes` passes with no tolerance: as a graph of tasks on the pool's
-    /// threads ([`super::graph`]) where it has more than one and the layout
+    /// threads ([`crate::sim::fast::graph`]) where it has more than one and the layout
     /// two blocks or more and no far bars; else pass by pass
     /// ([`BlockedBars::relax_pass`]). The same bits either way. Returns
     /// whether the passes ran as a graph.
@@ -346,7 +346,7 @@ impl BlockedBars {
         // At most one worker a block: tasks that may run at once touch
         // different blocks (the graph orders any two that share one), and
         // a worker with nothing to take spins.
-        graph::run(Schedule::new(blocks, passes), threads.min(blocks), &relax);
+        graph::run(Schedule::new(Chain::BlocksAndSeams, blocks, passes), threads.min(blocks), &relax);
         true
     }
 }

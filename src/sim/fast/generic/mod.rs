@@ -19,7 +19,6 @@
 mod blocks;
 mod collide;
 mod colouring;
-mod graph;
 mod octets;
 mod order;
 mod pairs;

@@ -51,10 +51,12 @@
 //! bars, eight at a time in lanes: rows two apart share no seam particle, so
 //! the seam bars are grouped even rows first, then odd ones ([`seam_groups`];
 //! one at a time they cost 14 % of a 256 × 256 step, as a chain of scalar
-//! projections each waiting for the last). Even tiles sweep first, then odd ones, so no two tiles being
-//! swept at once share a particle. Tiles are sized from the grid alone, never
-//! from the thread count, so one thread or many give the same bits; grids of
-//! at least [`PARALLEL_PARTICLES`] sweep their tiles on the rayon pool.
+//! projections each waiting for the last). Even tiles sweep first, then odd
+//! ones, so no two tiles being swept at once share a particle. Tiles are
+//! sized from the grid alone, never from the thread count, so one thread or
+//! many give the same bits; grids of at least [`PARALLEL_PARTICLES`] sweep
+//! their tiles on the rayon pool, a step's passes as a graph of tasks in
+//! which a tile's pass waits only on its neighbours' ([`sweep::sweep_passes`]).
 //!
 //! Columns past the end of the grid are padding of inverse mass 0; every bar
 //! touching them is a no-op (see [`super::kernel`]). So is every bar between

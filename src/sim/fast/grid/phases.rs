@@ -6,7 +6,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::sweep::{Sweep, sweep_tile_pipelined, sweep_tiles};
+use super::sweep::{Sweep, sweep_passes, sweep_tile_pipelined, sweep_tiles};
 use super::{GridLayout, Location, Slot, Tile};
 use crate::sim::aero::PointLanes;
 use crate::sim::contact::ContactStep;
@@ -165,6 +165,9 @@ impl Solver for GridLayout {
         if s.tolerance <= 0.0 && self.tiles.len() == 1 {
             // One tile and a fixed number of sweeps: overlap them.
             sweep_tile_pipelined(&mut self.tiles[0], &sweep, &self.row_starts, s.relaxations);
+            sweeps = s.relaxations;
+        } else if s.tolerance <= 0.0 {
+            sweep_passes(&mut self.tiles, &sweep, s.relaxations, parallel);
             sweeps = s.relaxations;
         }
         while sweeps < s.relaxations {

@@ -1,13 +1,17 @@
-//! A blocked layout's passes as a graph of tasks, so that threads wait on
-//! their neighbours' seams, not on every group of a round.
+//! A layout's relaxation passes as a graph of tasks, so that threads wait
+//! on their neighbours, not on every group of a round.
 //!
-//! [`super::blocks`] relaxes a pass in three rounds (the blocks, the seams
-//! after even blocks, those after odd ones), each ended by a barrier: 60
-//! barriers in a step of 20 passes, at each of which a thread that finished
-//! its share waits for the slowest, and a block's next pass waits for every
-//! seam of the pass, not only its own two. Here each group's pass is a task
-//! (block k or seam k, pass p) that runs as soon as the tasks it must follow
-//! are done:
+//! Both layouts cut the cloth into a chain of groups (the coloured
+//! layout's blocks of particles, the grid's tiles of columns) and relax a
+//! pass in rounds, each ended by a barrier: a thread that finished its
+//! share waits for the slowest, and a group's next pass waits for every
+//! group of the pass, not only the two beside it. Here each group's pass
+//! is a task that runs as soon as the tasks it must follow are done. The
+//! edges depend on how the chain's groups share particles ([`Chain`]):
+//!
+//! **Blocks and seams** (`generic::blocks`: three rounds a pass, the
+//! blocks, the seams after even blocks, those after odd ones). Task
+//! (block k, pass p) or (seam k, pass p):
 //!
 //! - block k, pass p: seams k − 1 and k of pass p − 1 (the only seams that
 //!   touch block k's particles);
@@ -15,16 +19,28 @@
 //!   even seams k − 1 and k + 1 of pass p (they touch blocks k and k + 1).
 //!
 //! Every particle then sees its groups in the rounds' order (its block,
-//! its even seam, its odd seam, its block again), so the graph computes the
-//! rounds' bits on any thread count. Two tasks that share a particle are
-//! always joined by a path of these edges (a test checks every pair), so two
-//! tasks that run at once share none, which is what lets
-//! [`run`] hand each its particles through a raw pointer.
+//! its even seam, its odd seam, its block again).
+//!
+//! **Tiles** (`grid::sweep`: two rounds a pass, even tiles then odd ones;
+//! tile k's task sweeps tile k, then the seam bars between its last lane
+//! and tile k + 1's first, so it touches tiles k and k + 1):
+//!
+//! - even tile k, pass p: tiles k − 1 and k + 1 of pass p − 1;
+//! - odd tile k, pass p: tiles k − 1 and k + 1 of pass p.
+//!
+//! Every tile then sees the tasks that touch it in the rounds' order.
+//!
+//! Either way the graph computes the rounds' bits on any thread count. Two
+//! tasks that share a particle are always joined by a path of these edges
+//! (a test checks every pair), so two tasks that run at once share none,
+//! which is what lets a layout hand each its particles through a raw
+//! pointer.
 //!
 //! Ready tasks are taken lowest pass first, then seams (short, and the next
-//! pass waits on them) before blocks, then a thread's own blocks (the first
-//! `blocks / threads`, and so on) before another's, so each block tends to
-//! stay on one core.
+//! pass waits on them) before blocks, then a thread's own groups (the first
+//! `groups / threads`, and so on) before another's, so each group tends to
+//! stay on one core. A worker with nothing ready spins: a task takes tens
+//! of microseconds, and a sleeping thread takes longer than that to wake.
 //!
 //! Measured on disc-183 (101 017 particles, 8 blocks) on the two vCPUs of
 //! host D (a Zen 4), both schedules in one process, alternated in windows
@@ -41,18 +57,31 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-/// One group's pass: block `node`, or seam `node − blocks` (between blocks
-/// `node − blocks` and `node − blocks + 1`).
+/// How a chain's groups share particles, which sets the graph's edges (the
+/// module's rules).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Task {
-    pub(super) pass: usize,
-    pub(super) node: usize,
+pub(crate) enum Chain {
+    /// The coloured layout's blocks, and the seams between neighbours as
+    /// tasks of their own.
+    BlocksAndSeams,
+    /// The grid's tiles, each task a tile and its seam to the next.
+    Tiles,
 }
 
-/// The tasks of `passes` passes over `blocks` blocks (≥ 2), and which are
-/// done, ready or waiting.
+/// One group's pass. With [`Chain::BlocksAndSeams`]: block `node`, or seam
+/// `node − blocks` (between blocks `node − blocks` and `node − blocks +
+/// 1`); with [`Chain::Tiles`]: tile `node`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Task {
+    pub(crate) pass: usize,
+    pub(crate) node: usize,
+}
+
+/// The tasks of `passes` passes over a chain of `blocks` groups (≥ 2), and
+/// which are done, ready or waiting.
 #[derive(Clone, Debug)]
-pub(super) struct Schedule {
+pub(crate) struct Schedule {
+    chain: Chain,
     blocks: usize,
     passes: usize,
     /// Per task (pass-major), how many of the tasks it follows are not done.
@@ -63,9 +92,9 @@ pub(super) struct Schedule {
 }
 
 impl Schedule {
-    pub(super) fn new(blocks: usize, passes: usize) -> Self {
-        assert!(blocks >= 2, "a schedule needs two blocks and the seam between them");
-        let mut schedule = Schedule { blocks, passes, waiting: Vec::new(), ready: Vec::new(), left: 0 };
+    pub(crate) fn new(chain: Chain, blocks: usize, passes: usize) -> Self {
+        assert!(blocks >= 2, "a schedule needs two groups and the seam between them");
+        let mut schedule = Schedule { chain, blocks, passes, waiting: Vec::new(), ready: Vec::new(), left: 0 };
         let tasks: Vec<Task> =
             (0..passes).flat_map(|pass| (0..schedule.nodes()).map(move |node| Task { pass, node })).collect();
         schedule.waiting = tasks.iter().map(|&t| schedule.follows(t).count() as u8).collect();
@@ -74,23 +103,37 @@ impl Schedule {
         schedule
     }
 
-    /// Blocks, then seams.
+    /// Blocks, then seams; or tiles.
     fn nodes(&self) -> usize {
-        2 * self.blocks - 1
+        match self.chain {
+            Chain::BlocksAndSeams => 2 * self.blocks - 1,
+            Chain::Tiles => self.blocks,
+        }
     }
 
     fn index(&self, t: Task) -> usize {
         t.pass * self.nodes() + t.node
     }
 
-    /// The seam task's seam, or `None` for a block.
+    /// The seam task's seam, or `None` for a block or a tile.
     fn seam(&self, t: Task) -> Option<usize> {
-        t.node.checked_sub(self.blocks)
+        match self.chain {
+            Chain::BlocksAndSeams => t.node.checked_sub(self.blocks),
+            Chain::Tiles => None,
+        }
     }
 
-    /// The tasks `t` must follow (the module's two rules).
-    pub(super) fn follows(&self, t: Task) -> impl Iterator<Item = Task> + use<> {
+    /// The tasks `t` must follow (the module's rules for its chain).
+    pub(crate) fn follows(&self, t: Task) -> impl Iterator<Item = Task> + use<> {
         let (blocks, seams) = (self.blocks, self.blocks - 1);
+        if self.chain == Chain::Tiles {
+            // Its neighbours, of the pass before (even tiles) or this one
+            // (odd tiles).
+            let k = t.node;
+            let pass = if k.is_multiple_of(2) { t.pass.checked_sub(1) } else { Some(t.pass) };
+            let tile = |k: Option<usize>| Some(Task { pass: pass?, node: k.filter(|&k| k < blocks)? });
+            return [tile(k.checked_sub(1)), tile(Some(k + 1)), None, None].into_iter().flatten();
+        }
         let seam = |pass: usize, k: usize| Task { pass, node: blocks + k };
         let block = |k: usize| Task { pass: t.pass, node: k };
         // At most four, kept on the stack: this runs under the lock.
@@ -114,23 +157,26 @@ impl Schedule {
     }
 
     /// The tasks that follow `t`: those at its pass or the next, near its
-    /// blocks, whose [`Schedule::follows`] holds it.
+    /// groups, whose [`Schedule::follows`] holds it.
     fn followers(&self, t: Task) -> impl Iterator<Item = Task> + '_ {
         let k = self.seam(t).unwrap_or(t.node);
         let near = k.saturating_sub(1)..(k + 3).min(self.blocks);
         let passes = t.pass..(t.pass + 2).min(self.passes);
+        let with_seams = self.chain == Chain::BlocksAndSeams;
         passes
             .flat_map(move |pass| {
                 let blocks = near.clone().map(move |node| Task { pass, node });
-                let seams =
-                    near.clone().filter(|&s| s + 1 < self.blocks).map(move |s| Task { pass, node: self.blocks + s });
+                let seams = near
+                    .clone()
+                    .filter(move |&s| with_seams && s + 1 < self.blocks)
+                    .map(move |s| Task { pass, node: self.blocks + s });
                 blocks.chain(seams)
             })
             .filter(move |&f| self.follows(f).any(|p| p == t))
     }
 
     /// Marks `t` done: the tasks that waited on it last become ready.
-    pub(super) fn complete(&mut self, t: Task) {
+    pub(crate) fn complete(&mut self, t: Task) {
         self.left -= 1;
         // At most four (an even seam's: two blocks, two odd seams).
         let mut followers = [None; 4];
@@ -147,13 +193,13 @@ impl Schedule {
     }
 
     /// Every task done.
-    pub(super) fn finished(&self) -> bool {
+    pub(crate) fn finished(&self) -> bool {
         self.left == 0
     }
 
     /// Takes the ready task thread `me` of `threads` should run next (the
     /// module's order), if any.
-    pub(super) fn take(&mut self, me: usize, threads: usize) -> Option<Task> {
+    pub(crate) fn take(&mut self, me: usize, threads: usize) -> Option<Task> {
         let home = |t: &Task| self.seam(*t).unwrap_or(t.node) * threads / self.blocks;
         let key = |t: &Task| (t.pass, self.seam(*t).is_none(), home(t) != me, t.node);
         let (at, _) = self.ready.iter().enumerate().min_by_key(|(_, t)| key(t))?;
@@ -166,7 +212,7 @@ impl Schedule {
 /// task as it finishes one ([`Schedule::take`]). `run` is called for two
 /// tasks at once only when neither follows the other. A panic in `run`
 /// stops the other workers and is raised again here.
-pub(super) fn run(schedule: Schedule, threads: usize, run: &(dyn Fn(Task) + Sync)) {
+pub(crate) fn run(schedule: Schedule, threads: usize, run: &(dyn Fn(Task) + Sync)) {
     let threads = threads.max(1);
     let shared = Mutex::new(schedule);
     let failed = AtomicBool::new(false);
@@ -216,11 +262,13 @@ pub(super) fn run(schedule: Schedule, threads: usize, run: &(dyn Fn(Task) + Sync
 mod tests {
     use super::*;
 
-    /// The blocks a task's particles lie in: its block, or its seam's two.
+    /// The groups a task's particles lie in: its block, its seam's two, or
+    /// its tile and the next (its seam bars' far ends).
     fn touches(s: &Schedule, t: Task) -> Vec<usize> {
-        match s.seam(t) {
-            None => vec![t.node],
-            Some(k) => vec![k, k + 1],
+        match (s.chain, s.seam(t)) {
+            (Chain::Tiles, _) => (t.node..(t.node + 2).min(s.blocks)).collect(),
+            (_, None) => vec![t.node],
+            (_, Some(k)) => vec![k, k + 1],
         }
     }
 
@@ -263,29 +311,40 @@ mod tests {
 
     #[test]
     fn tasks_that_share_a_particle_are_always_ordered() {
-        // Every pair of tasks over 3 passes of 2 to 6 blocks.
-        for blocks in 2..=6 {
-            let s = Schedule::new(blocks, 3);
-            let pairs = unordered_sharing(&s, &|t| s.follows(t).collect());
-            assert!(pairs.is_empty(), "{blocks} blocks: unordered tasks sharing a block: {pairs:?}");
+        // Every pair of tasks over 3 passes of 2 to 6 groups, either chain.
+        for chain in [Chain::BlocksAndSeams, Chain::Tiles] {
+            for blocks in 2..=6 {
+                let s = Schedule::new(chain, blocks, 3);
+                let pairs = unordered_sharing(&s, &|t| s.follows(t).collect());
+                assert!(pairs.is_empty(), "{chain:?}, {blocks} groups: unordered tasks sharing one: {pairs:?}");
+            }
         }
         // The check can fail: without the odd seams' edges to the even
         // seams of their pass, seams 0 and 1 of pass 0 (both in block 1)
         // are unordered.
-        let s = Schedule::new(4, 3);
+        let s = Schedule::new(Chain::BlocksAndSeams, 4, 3);
         let blocks_only = |t: Task| s.follows(t).filter(|p| s.seam(*p).is_none() || p.pass < t.pass).collect();
         let pairs = unordered_sharing(&s, &blocks_only);
         assert!(pairs.contains(&(Task { pass: 0, node: 4 }, Task { pass: 0, node: 5 })), "{pairs:?}");
+        // Nor without an odd tile's edge to the even tile after it: tile 1
+        // (its seam reaches into tile 2) and tile 2 of pass 0 are unordered.
+        let s = Schedule::new(Chain::Tiles, 4, 3);
+        let left_only = |t: Task| s.follows(t).filter(|p| p.node < t.node || p.pass < t.pass).collect();
+        let pairs = unordered_sharing(&s, &left_only);
+        assert!(pairs.contains(&(Task { pass: 0, node: 1 }, Task { pass: 0, node: 2 })), "{pairs:?}");
     }
 
     #[test]
     fn every_task_runs_once_after_those_it_follows_in_any_order_of_taking() {
         // Taken by thread 0, by the last of three threads, and in an order
         // shuffled by a fixed LCG: each task once, each after its
-        // prerequisites, every one of the 5 passes × 9 nodes.
-        for policy in 0..3 {
-            let mut s = Schedule::new(5, 5);
-            let mut done = [false; 5 * 9];
+        // prerequisites, every one of the 5 passes × 9 nodes (5 blocks and
+        // their 4 seams) or 5 × 5 tiles.
+        for (chain, policy) in
+            [Chain::BlocksAndSeams, Chain::Tiles].into_iter().flat_map(|c| (0..3).map(move |p| (c, p)))
+        {
+            let mut s = Schedule::new(chain, 5, 5);
+            let mut done = vec![false; 5 * s.nodes()];
             let mut lcg = 12_345u64;
             loop {
                 let t = match policy {
@@ -303,7 +362,7 @@ mod tests {
                 done[s.index(t)] = true;
                 s.complete(t);
             }
-            assert!(s.finished() && done.iter().all(|&d| d), "policy {policy}: not every task ran");
+            assert!(s.finished() && done.iter().all(|&d| d), "{chain:?}, policy {policy}: not every task ran");
         }
     }
 
@@ -316,7 +375,7 @@ mod tests {
         let bad = Task { pass: 2, node: 4 + 1 };
         let result = pool.install(|| {
             std::panic::catch_unwind(|| {
-                run(Schedule::new(4, 5), 2, &|t| assert_ne!(t, bad, "the task meant to fail"));
+                run(Schedule::new(Chain::BlocksAndSeams, 4, 5), 2, &|t| assert_ne!(t, bad, "the task meant to fail"));
             })
         });
         assert!(result.is_err());
