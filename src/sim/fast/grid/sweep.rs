@@ -93,7 +93,14 @@ unsafe impl Sync for Tiles {}
 /// G, both schedules alternated in one process): the rounds' step 5.02–5.18
 /// ms, the graph's 4.29–4.42 ms (−12 to −17 %). The rounds' 40 fork-joins
 /// a step each woke the second worker, which had gone to sleep.
+///
+/// Kept out of line: inlined into the relax phase, it made the seed's
+/// one-tile step (which never calls it) 0.049–0.052 → 0.066–0.073 ms in
+/// the ratios benchmark's binary (not in a probe's), with the same
+/// instructions in the sweep at the same alignment, and with every loop
+/// aligned to 64 bytes.
 #[allow(unsafe_code)]
+#[inline(never)]
 pub(super) fn sweep_passes(all: &mut [Tile], sweep: &Sweep, passes: u32, parallel: bool) {
     let (threads, count) = (rayon::current_num_threads(), all.len());
     if !parallel || threads == 1 || count < 2 {
