@@ -69,7 +69,7 @@ pub(crate) enum Chain {
 }
 
 /// One group's pass. With [`Chain::BlocksAndSeams`]: block `node`, or seam
-/// `node − blocks` (between blocks `node − blocks` and `node − blocks +
+/// `node − groups` (between blocks `node − groups` and `node − groups +
 /// 1`); with [`Chain::Tiles`]: tile `node`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Task {
@@ -77,12 +77,12 @@ pub(crate) struct Task {
     pub(crate) node: usize,
 }
 
-/// The tasks of `passes` passes over a chain of `blocks` groups (≥ 2), and
+/// The tasks of `passes` passes over a chain of `groups` groups (≥ 2), and
 /// which are done, ready or waiting.
 #[derive(Clone, Debug)]
 pub(crate) struct Schedule {
     chain: Chain,
-    blocks: usize,
+    groups: usize,
     passes: usize,
     /// Per task (pass-major), how many of the tasks it follows are not done.
     waiting: Vec<u8>,
@@ -92,9 +92,9 @@ pub(crate) struct Schedule {
 }
 
 impl Schedule {
-    pub(crate) fn new(chain: Chain, blocks: usize, passes: usize) -> Self {
-        assert!(blocks >= 2, "a schedule needs two groups and the seam between them");
-        let mut schedule = Schedule { chain, blocks, passes, waiting: Vec::new(), ready: Vec::new(), left: 0 };
+    pub(crate) fn new(chain: Chain, groups: usize, passes: usize) -> Self {
+        assert!(groups >= 2, "a schedule needs two groups and the seam between them");
+        let mut schedule = Schedule { chain, groups, passes, waiting: Vec::new(), ready: Vec::new(), left: 0 };
         let tasks: Vec<Task> =
             (0..passes).flat_map(|pass| (0..schedule.nodes()).map(move |node| Task { pass, node })).collect();
         schedule.waiting = tasks.iter().map(|&t| schedule.follows(t).count() as u8).collect();
@@ -106,8 +106,8 @@ impl Schedule {
     /// Blocks, then seams; or tiles.
     fn nodes(&self) -> usize {
         match self.chain {
-            Chain::BlocksAndSeams => 2 * self.blocks - 1,
-            Chain::Tiles => self.blocks,
+            Chain::BlocksAndSeams => 2 * self.groups - 1,
+            Chain::Tiles => self.groups,
         }
     }
 
@@ -118,22 +118,23 @@ impl Schedule {
     /// The seam task's seam, or `None` for a block or a tile.
     fn seam(&self, t: Task) -> Option<usize> {
         match self.chain {
-            Chain::BlocksAndSeams => t.node.checked_sub(self.blocks),
+            Chain::BlocksAndSeams => t.node.checked_sub(self.groups),
             Chain::Tiles => None,
         }
     }
 
     /// The tasks `t` must follow (the module's rules for its chain).
     pub(crate) fn follows(&self, t: Task) -> impl Iterator<Item = Task> + use<> {
-        let (blocks, seams) = (self.blocks, self.blocks - 1);
         if self.chain == Chain::Tiles {
             // Its neighbours, of the pass before (even tiles) or this one
             // (odd tiles).
             let k = t.node;
             let pass = if k.is_multiple_of(2) { t.pass.checked_sub(1) } else { Some(t.pass) };
-            let tile = |k: Option<usize>| Some(Task { pass: pass?, node: k.filter(|&k| k < blocks)? });
+            let tile = |k: Option<usize>| Some(Task { pass: pass?, node: k.filter(|&k| k < self.groups)? });
             return [tile(k.checked_sub(1)), tile(Some(k + 1)), None, None].into_iter().flatten();
         }
+        // Blocks and seams: the groups are blocks.
+        let (blocks, seams) = (self.groups, self.groups - 1);
         let seam = |pass: usize, k: usize| Task { pass, node: blocks + k };
         let block = |k: usize| Task { pass: t.pass, node: k };
         // At most four, kept on the stack: this runs under the lock.
@@ -160,7 +161,7 @@ impl Schedule {
     /// groups, whose [`Schedule::follows`] holds it.
     fn followers(&self, t: Task) -> impl Iterator<Item = Task> + '_ {
         let k = self.seam(t).unwrap_or(t.node);
-        let near = k.saturating_sub(1)..(k + 3).min(self.blocks);
+        let near = k.saturating_sub(1)..(k + 3).min(self.groups);
         let passes = t.pass..(t.pass + 2).min(self.passes);
         let with_seams = self.chain == Chain::BlocksAndSeams;
         passes
@@ -168,8 +169,8 @@ impl Schedule {
                 let blocks = near.clone().map(move |node| Task { pass, node });
                 let seams = near
                     .clone()
-                    .filter(move |&s| with_seams && s + 1 < self.blocks)
-                    .map(move |s| Task { pass, node: self.blocks + s });
+                    .filter(move |&s| with_seams && s + 1 < self.groups)
+                    .map(move |s| Task { pass, node: self.groups + s });
                 blocks.chain(seams)
             })
             .filter(move |&f| self.follows(f).any(|p| p == t))
@@ -200,7 +201,7 @@ impl Schedule {
     /// Takes the ready task thread `me` of `threads` should run next (the
     /// module's order), if any.
     pub(crate) fn take(&mut self, me: usize, threads: usize) -> Option<Task> {
-        let home = |t: &Task| self.seam(*t).unwrap_or(t.node) * threads / self.blocks;
+        let home = |t: &Task| self.seam(*t).unwrap_or(t.node) * threads / self.groups;
         let key = |t: &Task| (t.pass, self.seam(*t).is_none(), home(t) != me, t.node);
         let (at, _) = self.ready.iter().enumerate().min_by_key(|(_, t)| key(t))?;
         Some(self.ready.swap_remove(at))
@@ -266,7 +267,7 @@ mod tests {
     /// its tile and the next (its seam bars' far ends).
     fn touches(s: &Schedule, t: Task) -> Vec<usize> {
         match (s.chain, s.seam(t)) {
-            (Chain::Tiles, _) => (t.node..(t.node + 2).min(s.blocks)).collect(),
+            (Chain::Tiles, _) => (t.node..(t.node + 2).min(s.groups)).collect(),
             (_, None) => vec![t.node],
             (_, Some(k)) => vec![k, k + 1],
         }
@@ -313,10 +314,10 @@ mod tests {
     fn tasks_that_share_a_particle_are_always_ordered() {
         // Every pair of tasks over 3 passes of 2 to 6 groups, either chain.
         for chain in [Chain::BlocksAndSeams, Chain::Tiles] {
-            for blocks in 2..=6 {
-                let s = Schedule::new(chain, blocks, 3);
+            for groups in 2..=6 {
+                let s = Schedule::new(chain, groups, 3);
                 let pairs = unordered_sharing(&s, &|t| s.follows(t).collect());
-                assert!(pairs.is_empty(), "{chain:?}, {blocks} groups: unordered tasks sharing one: {pairs:?}");
+                assert!(pairs.is_empty(), "{chain:?}, {groups} groups: unordered tasks sharing one: {pairs:?}");
             }
         }
         // The check can fail: without the odd seams' edges to the even

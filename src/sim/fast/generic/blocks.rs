@@ -21,9 +21,9 @@
 //! touches blocks k and k + 1 only), then those after odd blocks, then the
 //! last group on one thread: three rounds, each ended by a barrier. A
 //! step with no tolerance runs its passes instead as a graph of tasks
-//! ([`crate::sim::fast::graph`]): each block's next pass starts as soon as its own two
-//! seams are done, in the same order for every particle, so with the same
-//! bits. The bars between blocks had been one group
+//! ([`crate::sim::fast::graph`]): each block's next pass starts as soon as
+//! its own two seams are done, in the same order for every particle, so
+//! with the same bits. The bars between blocks had been one group
 //! relaxed on one thread while the other idled (2.3 % of disc-183's bars,
 //! 35–65 µs a pass on two threads of host D); in seams, disc-183's step on
 //! two threads went from 9.9–15.4 ms to 9.2–12.3 ms (five alternated
@@ -312,8 +312,8 @@ unsafe impl Sync for Nodes {}
 
 impl BlockedBars {
     /// `passes` passes with no tolerance: as a graph of tasks on the pool's
-    /// threads ([`crate::sim::fast::graph`]) where it has more than one and the layout
-    /// two blocks or more and no far bars; else pass by pass
+    /// threads ([`crate::sim::fast::graph`]) where it has more than one and
+    /// the layout two blocks or more and no far bars; else pass by pass
     /// ([`BlockedBars::relax_pass`]). The same bits either way. Returns
     /// whether the passes ran as a graph.
     #[allow(unsafe_code)]
