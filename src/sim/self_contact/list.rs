@@ -83,6 +83,9 @@ pub(super) struct Candidates {
     pub(super) own: Vec<u32>,
     pub(super) other: Vec<u32>,
     pub(super) ends: Vec<u32>,
+    /// d_min = min(r, |X_i − X_j|) of each pair, metres (filled once the
+    /// pairs are in their final order, when the list is to be kept).
+    pub(super) keep: Vec<f32>,
 }
 
 impl Candidates {

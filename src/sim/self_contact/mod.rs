@@ -67,7 +67,7 @@ use rayon::prelude::*;
 
 use cells::{Cells, PER_TASK, gather, gather_rows};
 use list::{Candidates, PairList, Plan};
-use pair::{Moves, Slots, pair_corrections};
+use pair::{Moves, PairSlots, Slots, d_min, pair_corrections};
 
 pub use list::{LIFETIME, MOVERS, SKIN};
 
@@ -176,6 +176,13 @@ fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactS
             let mut kept = Candidates::default();
             phase.cells.pairs_after(first, count, step.thickness + skin, &mut kept.own, &mut kept.other);
             kept.sort_by_other(phase.cells.order.len().div_ceil(CHUNK));
+            // Each candidate's d_min, for the substeps that keep the list.
+            let rest = |s: u32| {
+                let row = phase.slot_rest[s as usize];
+                [row[0], row[1], row[2]]
+            };
+            let own_other = kept.own.iter().zip(&kept.other);
+            kept.keep = own_other.map(|(&i, &j)| d_min(rest(i), rest(j), step.thickness)).collect();
             push_close(&kept, point, r2, pairs);
             pairs.kept = kept;
         }
@@ -276,16 +283,16 @@ fn corrections(
         moved.truncate(count);
         moved.resize(count, Vec3A::ZERO);
     }
-    let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest, masked: false };
+    let slots = Slots { point: &phase.slot_point, start: &phase.slot_start, rest: &phase.slot_rest };
     let (own_listed, own_found) = pairs.moved_own.split_at_mut(pairs.listed);
     let (other_listed, other_found) = pairs.moved_other.split_at_mut(pairs.listed);
     if let Some(listed) = listed.filter(|_| pairs.listed > 0) {
-        let masked = Slots { masked: true, ..slots };
         let moves = Moves { own: own_listed, other: other_listed };
-        pair_corrections(&masked, &listed.own, &listed.other, moves, step);
+        let pairs = PairSlots { own: &listed.own, other: &listed.other, listed: Some(&listed.keep) };
+        pair_corrections(&slots, &pairs, moves, step);
     }
     let moves = Moves { own: own_found, other: other_found };
-    pair_corrections(&slots, &pairs.own, &pairs.other, moves, step);
+    pair_corrections(&slots, &PairSlots { own: &pairs.own, other: &pairs.other, listed: None }, moves, step);
     // The found pairs' other ends by chunk, so each chunk's sums can run
     // on their own (a kept list's pairs were sorted so when it was made).
     let (other, moved) = (&pairs.other, &pairs.moved_other[pairs.listed..]);

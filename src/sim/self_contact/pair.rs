@@ -28,6 +28,11 @@
 //! ```
 //!
 //! with the bits the rule gives when j is the owner.
+//!
+//! **d_min given.** d_min depends on the rest positions alone, so for the
+//! pairs of a kept list it is computed once, at the search ([`d_min`],
+//! the same operations, so the same bits), and the batches read one number
+//! a pair instead of gathering both ends' rest rows every substep.
 
 use glam::{Vec3A, Vec4};
 
@@ -48,11 +53,19 @@ pub(super) struct Slots<'a> {
     pub(super) start: &'a [[f32; 4]],
     /// X: `[x, y, z, 0]`.
     pub(super) rest: &'a [[f32; 4]],
-    /// A pair with an end marked, or with both ends pinned, gives nothing
-    /// (a kept list's pairs, computed without testing them first, the
-    /// movers marked: `self_contact/list.rs`). The mark comes with the
-    /// start row that the rule reads anyway: no load of its own.
-    pub(super) masked: bool,
+}
+
+/// Pairs of slots, `own[k]` with `other[k]`.
+pub(super) struct PairSlots<'a> {
+    pub(super) own: &'a [u32],
+    pub(super) other: &'a [u32],
+    /// `Some`: a kept list's pairs (`self_contact/list.rs`), with each
+    /// pair's d_min ([`d_min`], computed at the search). They come to the
+    /// rule untested, so a pair with an end marked (a mover) or with both
+    /// ends pinned gives nothing; the mark comes with the start row that
+    /// the rule reads anyway: no load of its own. `None`: d_min from the
+    /// rest rows, and no mask.
+    pub(super) listed: Option<&'a [f32]>,
 }
 
 /// The moves of pair k's two slots, `own[k]` and `other[k]`.
@@ -61,60 +74,65 @@ pub(super) struct Moves<'a> {
     pub(super) other: &'a mut [Vec3A],
 }
 
-/// What slots `own[k]` and `other[k]` do to each other, for each k, into
-/// `out` (every slice the same length; the two slots of a pair not both
-/// pinned, unless `slots.masked`).
+/// What the two slots of each of `pairs` do to each other, into `out`
+/// (every slice the same length; the two slots of a pair not both pinned,
+/// unless the pairs are listed).
 #[allow(unsafe_code)]
-pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
+pub(super) fn pair_corrections(slots: &Slots, pairs: &PairSlots, out: Moves, step: &SelfContactStep) {
     #[cfg(target_arch = "x86_64")]
     match simd::level() {
         SimdLevel::Avx512 => {
             // SAFETY: the level is AVX-512 only when the CPU reports AVX-512
             // F and VL besides AVX2 and FMA, the features
             // `avx2::pair_corrections_avx512` is compiled for.
-            unsafe { avx2::pair_corrections_avx512(slots, own, other, out, step) };
+            unsafe { avx2::pair_corrections_avx512(slots, pairs, out, step) };
             return;
         }
         SimdLevel::Avx2 => {
             // SAFETY: the level is AVX2 only when the CPU reports AVX2 and
             // FMA, the features `avx2::pair_corrections` is compiled for.
-            unsafe { avx2::pair_corrections(slots, own, other, out, step) };
+            unsafe { avx2::pair_corrections(slots, pairs, out, step) };
             return;
         }
         SimdLevel::Portable => {}
     }
     // Without AVX2: the `wide` crate's vectors (NEON, SSE).
-    corrections_in::<Wide>(slots, own, other, out, step);
+    corrections_in::<Wide>(slots, pairs, out, step);
 }
 
-/// [`pair_corrections`] on lanes of type `T`: one loop for the pairs
-/// given untested to a mask, one for the others (the mask's loads and
-/// selects kept out of the plain loop's registers).
+/// [`pair_corrections`] on lanes of type `T`: one loop for a kept list's
+/// pairs, one for the others (the mask's loads and selects kept out of
+/// the plain loop's registers).
 #[inline(always)]
-fn corrections_in<T: Rows>(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
-    match slots.masked {
-        false => corrections_of::<T, false>(slots, own, other, out, step),
-        true => corrections_of::<T, true>(slots, own, other, out, step),
+fn corrections_in<T: Rows>(slots: &Slots, pairs: &PairSlots, out: Moves, step: &SelfContactStep) {
+    let (own, other) = (pairs.own, pairs.other);
+    match pairs.listed {
+        None => corrections_of::<T, false>(slots, own, other, &[], out, step),
+        Some(keep) => corrections_of::<T, true>(slots, own, other, keep, out, step),
     }
 }
 
-/// [`corrections_in`], with `MASKED` as `slots.masked`: whole
-/// batches of eight pairs, then the last one padded.
+/// [`corrections_in`], with `LISTED` for a kept list's pairs, whose d_min
+/// is `keep`: whole batches of eight pairs, then the last one padded.
 #[inline(always)]
-fn corrections_of<T: Rows, const MASKED: bool>(
+fn corrections_of<T: Rows, const LISTED: bool>(
     slots: &Slots,
     own: &[u32],
     other: &[u32],
+    keep: &[f32],
     out: Moves,
     step: &SelfContactStep,
 ) {
+    debug_assert!(!LISTED || keep.len() == own.len(), "one d_min a listed pair");
     let tail = own.len() / LANES * LANES;
     let batches = own[..tail].chunks_exact(LANES).zip(other[..tail].chunks_exact(LANES));
     let outs = out.own[..tail].chunks_exact_mut(LANES).zip(out.other[..tail].chunks_exact_mut(LANES));
-    for ((own, other), (out_i, out_j)) in batches.zip(outs) {
+    for (k, ((own, other), (out_i, out_j))) in batches.zip(outs).enumerate() {
         let a: [usize; LANES] = each_lane!(|l| own[l] as usize);
         let b: [usize; LANES] = each_lane!(|l| other[l] as usize);
-        let [moved_i, moved_j] = batch::<T, MASKED>(slots, &a, &b, step);
+        // One bounds check a batch (the slice is eight long).
+        let keep = if LISTED { keep[k * LANES..][..LANES].try_into().unwrap_or([0.0; LANES]) } else { [0.0; LANES] };
+        let [moved_i, moved_j] = batch::<T, LISTED>(slots, &a, &b, keep, step);
         store(moved_i, out_i);
         store(moved_j, out_j);
     }
@@ -122,7 +140,8 @@ fn corrections_of<T: Rows, const MASKED: bool>(
         // Lanes past the end pair slot 0 with itself: d = 0, nothing.
         let a: [usize; LANES] = std::array::from_fn(|l| own.get(tail + l).map_or(0, |&s| s as usize));
         let b: [usize; LANES] = std::array::from_fn(|l| other.get(tail + l).map_or(0, |&s| s as usize));
-        let [moved_i, moved_j] = batch::<T, MASKED>(slots, &a, &b, step);
+        let keep: [f32; LANES] = std::array::from_fn(|l| keep.get(tail + l).copied().unwrap_or(0.0));
+        let [moved_i, moved_j] = batch::<T, LISTED>(slots, &a, &b, keep, step);
         let (mut i, mut j) = ([Vec3A::ZERO; LANES], [Vec3A::ZERO; LANES]);
         store(moved_i, &mut i);
         store(moved_j, &mut j);
@@ -132,13 +151,15 @@ fn corrections_of<T: Rows, const MASKED: bool>(
     }
 }
 
-/// The moves of slots `a[l]` and `b[l]`'s pairs ([`rule`]); with `MASKED`,
-/// nothing where an end's start row is marked or both ends are pinned.
+/// The moves of slots `a[l]` and `b[l]`'s pairs ([`rule`]); with
+/// `LISTED`, d_min is `keep[l]`, and nothing where an end's start row is
+/// marked or both ends are pinned (else d_min from the rest rows).
 #[inline(always)]
-fn batch<T: Rows, const MASKED: bool>(
+fn batch<T: Rows, const LISTED: bool>(
     slots: &Slots,
     a: &[usize; LANES],
     b: &[usize; LANES],
+    keep: [f32; LANES],
     step: &SelfContactStep,
 ) -> [Point<T>; 2] {
     let point = |rows: &[[f32; 4]], s: &[usize; LANES]| -> Point<T> {
@@ -149,18 +170,13 @@ fn batch<T: Rows, const MASKED: bool>(
     let [xj0, xj1, xj2, wj] = T::gather(slots.point, b);
     let [x0i0, x0i1, x0i2, mark_i] = T::gather(slots.start, a);
     let [x0j0, x0j1, x0j2, mark_j] = T::gather(slots.start, b);
-    let [moved_i, moved_j] = rule(
-        [xi0, xi1, xi2],
-        [xj0, xj1, xj2],
-        [x0i0, x0i1, x0i2],
-        [x0j0, x0j1, x0j2],
-        point(slots.rest, a),
-        point(slots.rest, b),
-        wi,
-        wj,
-        step,
-    );
-    if !MASKED {
+    let keep = match LISTED {
+        true => T::from_values(keep),
+        false => d_min(point(slots.rest, a), point(slots.rest, b), T::splat(step.thickness)),
+    };
+    let [moved_i, moved_j] =
+        rule([xi0, xi1, xi2], [xj0, xj1, xj2], [x0i0, x0i1, x0i2], [x0j0, x0j1, x0j2], keep, wi, wj, step);
+    if !LISTED {
         return [moved_i, moved_j];
     }
     // Marks are 0 or 1: their sum is 0 only when neither end is marked.
@@ -193,8 +209,19 @@ fn store<T: Rows>(moved: Point<T>, out: &mut [Vec3A]) {
     }
 }
 
+/// d_min = min(r, |X_i − X_j|) of pairs with rest positions `rest_i`
+/// and `rest_j`: in lanes, or one pair at a time as `f32` (the same
+/// operations, so the same bits).
+#[inline(always)]
+pub(super) fn d_min<T: Real>(rest_i: Point<T>, rest_j: Point<T>, r: T) -> T {
+    let rest = sub(rest_i, rest_j);
+    let rest = dot(rest, rest).sqrt();
+    // min(rest, r), as f32::min for numbers.
+    T::if_greater(rest, r, r, rest)
+}
+
 /// The rule of the module docs for eight pairs in lanes: i's position,
-/// j's, their substep-start positions, rest positions and weights; i's
+/// j's, their substep-start positions, d_min ([`d_min`]) and weights; i's
 /// move and j's.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -203,20 +230,14 @@ fn rule<T: Real>(
     xj: Point<T>,
     x0i: Point<T>,
     x0j: Point<T>,
-    rest_i: Point<T>,
-    rest_j: Point<T>,
+    keep: T,
     wi: T,
     wj: T,
     step: &SelfContactStep,
 ) -> [Point<T>; 2] {
-    let r = T::splat(step.thickness);
     let zero = T::splat(0.0);
     let d = sub(xi, xj);
     let dist2 = dot(d, d);
-    let rest = sub(rest_i, rest_j);
-    let rest = dot(rest, rest).sqrt();
-    // min(rest, r), as f32::min for numbers.
-    let keep = T::if_greater(rest, r, r, rest);
     let dist = dist2.sqrt();
     let (share_i, share_j) = (wi / (wi + wj), wj / (wi + wj));
     let n = [d[0] / dist, d[1] / dist, d[2] / dist];
@@ -246,25 +267,19 @@ fn friction<T: Real>(share: T, push: T, slide: T, step: &SelfContactStep) -> T {
 /// [`pair_corrections`] in AVX registers.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Moves, SelfContactStep, Slots, corrections_in};
+    use super::{Moves, PairSlots, SelfContactStep, Slots, corrections_in};
     use crate::sim::fast::avx::Avx;
 
     #[target_feature(enable = "avx2,fma")]
-    pub(super) fn pair_corrections(slots: &Slots, own: &[u32], other: &[u32], out: Moves, step: &SelfContactStep) {
-        corrections_in::<Avx>(slots, own, other, out, step);
+    pub(super) fn pair_corrections(slots: &Slots, pairs: &PairSlots, out: Moves, step: &SelfContactStep) {
+        corrections_in::<Avx>(slots, pairs, out, step);
     }
 
     /// The same 256-bit code where AVX-512 VL gives it 32 vector
     /// registers instead of 16.
     #[target_feature(enable = "avx2,fma,avx512f,avx512vl")]
-    pub(super) fn pair_corrections_avx512(
-        slots: &Slots,
-        own: &[u32],
-        other: &[u32],
-        out: Moves,
-        step: &SelfContactStep,
-    ) {
-        corrections_in::<Avx>(slots, own, other, out, step);
+    pub(super) fn pair_corrections_avx512(slots: &Slots, pairs: &PairSlots, out: Moves, step: &SelfContactStep) {
+        corrections_in::<Avx>(slots, pairs, out, step);
     }
 }
 
@@ -278,7 +293,7 @@ mod tests {
         moves.into_iter().map(Vec3::from).collect()
     }
 
-    type Build = fn(&Slots, &[u32], &[u32], Moves, &SelfContactStep);
+    type Build = fn(&Slots, &PairSlots, Moves, &SelfContactStep);
 
     /// Every build of the rule this CPU runs, by name: the portable lanes,
     /// and the AVX2 and AVX-512 builds where the CPU has their features
@@ -287,20 +302,18 @@ mod tests {
     #[allow(unsafe_code)]
     fn builds() -> Vec<(&'static str, Build)> {
         let mut builds: Vec<(&'static str, Build)> =
-            vec![("portable", |s, own, other, out, step| corrections_in::<Wide>(s, own, other, out, step))];
+            vec![("portable", |s, pairs, out, step| corrections_in::<Wide>(s, pairs, out, step))];
         #[cfg(target_arch = "x86_64")]
         {
             if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
                 // SAFETY: pushed only where the CPU has AVX2 and FMA.
-                let avx2: Build =
-                    |s, own, other, out, step| unsafe { avx2::pair_corrections(s, own, other, out, step) };
+                let avx2: Build = |s, pairs, out, step| unsafe { avx2::pair_corrections(s, pairs, out, step) };
                 builds.push(("avx2", avx2));
             }
             if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl") {
                 // SAFETY: pushed only where the CPU has AVX-512 F and VL
                 // (and so AVX2 and FMA).
-                let avx512: Build =
-                    |s, own, other, out, step| unsafe { avx2::pair_corrections_avx512(s, own, other, out, step) };
+                let avx512: Build = |s, pairs, out, step| unsafe { avx2::pair_corrections_avx512(s, pairs, out, step) };
                 builds.push(("avx512", avx512));
             }
         }
@@ -386,18 +399,25 @@ mod tests {
         let point: Vec<[f32; 4]> = x.iter().zip(&w).map(|(&v, &w)| row(v, w)).collect();
         let start: Vec<[f32; 4]> = x0.iter().map(|&v| row(v, 0.0)).collect();
         let rests: Vec<[f32; 4]> = rest.iter().map(|&v| row(v, 0.0)).collect();
-        let slots = Slots { point: &point, start: &start, rest: &rests, masked: false };
+        let slots = Slots { point: &point, start: &start, rest: &rests };
         let other: Vec<u32> = (1..x.len() as u32).collect();
         let own = vec![0u32; other.len()];
         let step = SelfContactStep { thickness: r, friction: 0.4, parallel: false };
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-        // 11 pairs: a whole batch of eight and a padded one, in every build.
+        // The pairs as a kept list gives them: d_min computed beforehand,
+        // one pair at a time (no end marked, none with both ends pinned).
+        let keep = listed_d_min(&rests, &own, &other, r);
+        // 11 pairs: a whole batch of eight and a padded one, in every build,
+        // with d_min from the rest rows and given.
         let mut results = Vec::new();
         for (build, corrections) in builds() {
-            let mut moved = vec![Vec3A::NAN; other.len()];
-            let mut moved_j = vec![Vec3A::NAN; other.len()];
-            corrections(&slots, &own, &other, Moves { own: &mut moved, other: &mut moved_j }, &step);
-            results.push((build, plain(moved), plain(moved_j)));
+            for listed in [None, Some(&keep[..])] {
+                let mut moved = vec![Vec3A::NAN; other.len()];
+                let mut moved_j = vec![Vec3A::NAN; other.len()];
+                let pairs = PairSlots { own: &own, other: &other, listed };
+                corrections(&slots, &pairs, Moves { own: &mut moved, other: &mut moved_j }, &step);
+                results.push((build, plain(moved), plain(moved_j)));
+            }
         }
         assert!(results.len() > 1 || !cfg!(target_arch = "x86_64") || !is_x86_feature_detected!("avx2"));
         // Each pair's moves by the one-pair rule: i's end, and j's as the
@@ -433,6 +453,43 @@ mod tests {
         assert!((moved_j[1].y - 2.0 / 3.0 * 0.004).abs() < 1e-6, "{:?}", moved_j[1]);
     }
 
+    /// d_min of each pair, one pair at a time, as a search computes it for
+    /// a kept list.
+    fn listed_d_min(rest: &[[f32; 4]], own: &[u32], other: &[u32], r: f32) -> Vec<f32> {
+        let point = |s: u32| {
+            let row = rest[s as usize];
+            [row[0], row[1], row[2]]
+        };
+        own.iter().zip(other).map(|(&i, &j)| d_min(point(i), point(j), r)).collect()
+    }
+
+    #[test]
+    fn a_wrong_d_min_given_changes_the_pushes() {
+        // The check above could pass were the given d_min never read: with
+        // r given for every pair instead, the rest neighbours 3 mm apart
+        // (rest 5 mm, so d_min = 5 mm) are pushed to 1 cm instead.
+        let r = 0.01;
+        let point = vec![[0.0, 0.0, 0.0, 1.0], [0.003, 0.0, 0.0, 1.0]];
+        let start = vec![[0.0, 0.0, 0.0, 0.0], [0.003, 0.0, 0.0, 0.0]];
+        let rest = vec![[0.0, 0.0, 0.0, 0.0], [0.005, 0.0, 0.0, 0.0]];
+        let slots = Slots { point: &point, start: &start, rest: &rest };
+        let step = SelfContactStep { thickness: r, friction: 0.0, parallel: false };
+        let (own, other) = ([0u32], [1u32]);
+        let keep = listed_d_min(&rest, &own, &other, r);
+        assert_eq!(keep, [0.005], "d_min = min(r, 5 mm)");
+        for (build, corrections) in builds() {
+            let run = |keep: &[f32]| {
+                let (mut i, mut j) = (vec![Vec3A::NAN; 1], vec![Vec3A::NAN; 1]);
+                let pairs = PairSlots { own: &own, other: &other, listed: Some(keep) };
+                corrections(&slots, &pairs, Moves { own: &mut i, other: &mut j }, &step);
+                i[0].x
+            };
+            // Each end takes half of 5 mm − 3 mm, or of 1 cm − 3 mm.
+            assert!((run(&keep) + 0.001).abs() < 1e-7, "{build}: {}", run(&keep));
+            assert!((run(&[r]) + 0.0035).abs() < 1e-7, "{build}: {}", run(&[r]));
+        }
+    }
+
     #[test]
     fn marked_ends_and_pinned_pairs_give_nothing_when_asked() {
         // Slot 0 against slots 1..=4, each 4 mm away (r = 1 cm): every pair
@@ -454,9 +511,11 @@ mod tests {
                 let point: Vec<[f32; 4]> = x.iter().zip(w).map(|(v, w)| [v.x, v.y, v.z, w]).collect();
                 let mark = |k: usize| skip.map_or(0.0, |marked| f32::from(u8::from(marked[k])));
                 let start: Vec<[f32; 4]> = x.iter().enumerate().map(|(k, v)| [v.x, v.y, v.z, mark(k)]).collect();
-                let slots = Slots { point: &point, start: &start, rest: &rest, masked: skip.is_some() };
+                let slots = Slots { point: &point, start: &start, rest: &rest };
+                let keep = listed_d_min(&rest, &own, &other, r);
+                let pairs = PairSlots { own: &own, other: &other, listed: skip.map(|_| &keep[..]) };
                 let (mut i, mut j) = (vec![Vec3A::NAN; 12], vec![Vec3A::NAN; 12]);
-                corrections(&slots, &own, &other, Moves { own: &mut i, other: &mut j }, &step);
+                corrections(&slots, &pairs, Moves { own: &mut i, other: &mut j }, &step);
                 (plain(i), plain(j))
             };
             marked_and_pinned(build, run);

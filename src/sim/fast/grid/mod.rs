@@ -70,6 +70,7 @@
 
 mod ops;
 mod phases;
+mod scene;
 mod shape;
 mod sweep;
 #[cfg(test)]
