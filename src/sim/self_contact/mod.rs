@@ -46,7 +46,8 @@
 //! The order depends on neither the thread count nor the SIMD level; it
 //! does depend on the order of the rows the phase is given (a solver may
 //! give its own, [`SelfContact::apply_numbered`]: within a cell the
-//! particles come in row order). Large cloths search, test and compute
+//! particles come in row order; both fast layouts give their own, the
+//! grid its lane order). Large cloths search, test and compute
 //! pairs in chunks of the table on the rayon pool, and sum each chunk's
 //! slots on the pool too. The phase reads each pair's data (positions,
 //! substep-start positions, weights, rest positions) from copies in the

@@ -443,6 +443,12 @@ pub(crate) struct GridLayout {
     /// scene row is one row of slots in every tile, lane by lane in scene
     /// order ([`scene_rows`]); empty otherwise.
     scene_rows: Vec<u32>,
+    /// The scene index of every particle in lane order (tile by tile, slot
+    /// by slot, lane by lane, padding skipped): the rows the self-collide
+    /// phase works on (`scene.rs`). Tile t's are
+    /// `lane_rows[tile_rows[t]..tile_rows[t + 1]]`.
+    lane_rows: Vec<u32>,
+    tile_rows: Vec<usize>,
     orientation: Orientation,
     /// How the grid was found when the mesh did not say it was one
     /// ([`shape::implied_grid`]): in its numbering, or its triangles.
@@ -525,6 +531,8 @@ impl GridLayout {
             row_starts: Vec::with_capacity(rows + 1),
             locations,
             scene_rows: Vec::new(),
+            lane_rows: Vec::new(),
+            tile_rows: Vec::new(),
             orientation,
             found: match (implied, &number) {
                 (false, _) => None,
@@ -651,6 +659,11 @@ impl GridLayout {
             }
         }
         layout.scene_rows = scene_rows(&layout.tiles, &layout.locations, block);
+        layout.tile_rows = vec![0];
+        for tile in &layout.tiles {
+            layout.lane_rows.extend(tile.scene.iter().flatten().filter(|&&i| i != u32::MAX));
+            layout.tile_rows.push(layout.lane_rows.len());
+        }
         layout.refresh_shares();
         Some(layout)
     }

@@ -114,7 +114,8 @@ impl Solver for GridLayout {
     }
 
     /// Reads positions, start positions (x_pred − d) and weights out in
-    /// scene order, runs the phase, writes the positions back.
+    /// lane order (`scene.rs`: whole slots transposed, no scene index
+    /// looked up), runs the phase on those rows, writes the positions back.
     fn self_collide(&mut self, phase: &mut SelfContact, step: &SelfContactStep) {
         let (mut x, mut x0, mut w) =
             (std::mem::take(&mut phase.x), std::mem::take(&mut phase.x0), std::mem::take(&mut phase.w));
@@ -124,7 +125,8 @@ impl Solver for GridLayout {
         w.resize(n, 0.0);
         let parallel = step.parallel && self.parallel();
         self.read_starts(&mut x, &mut x0, &mut w, parallel);
-        phase.apply(&mut x, &x0, &w, &SelfContactStep { parallel, ..*step });
+        let step = SelfContactStep { parallel, ..*step };
+        phase.apply_numbered(&mut x, &x0, &w, Some(self.lane_rows()), &step);
         self.write_positions(&x, parallel);
         (phase.x, phase.x0, phase.w) = (x, x0, w);
     }

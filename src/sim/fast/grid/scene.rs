@@ -1,13 +1,22 @@
-//! The grid's lanes in scene order, for the phases that work there: x
-//! with x − d (the positions a substep ago) read out row by row where each
-//! scene row is a row of slots in every tile ([`super::scene_rows`]), else
-//! particle by particle; and the self-collide phase's x, x_pred − d (where
-//! the substep started) and weights read out and x written back.
+//! The grid's lanes as rows of particles, for the phases that work on
+//! rows:
+//! - *scene order* (x with x − d, the positions a substep ago): row by row
+//!   of the scene where each scene row is a row of slots in every tile
+//!   ([`super::scene_rows`]), a slot's eight lanes transposed into eight
+//!   rows, else particle by particle through its location;
+//! - *lane order* (the self-collide phase's x, x_pred − d and w, and x
+//!   written back): the particles as the tiles hold them, tile by tile,
+//!   slot by slot, lane by lane, padding skipped ([`GridLayout::lane_rows`]
+//!   names each row's particle). A slot of eight particles is eight
+//!   consecutive rows, so it is transposed whole both ways and no scene
+//!   index is looked up; the phase takes the rows in this order
+//!   ([`SelfContact::apply_numbered`](crate::sim::self_contact::SelfContact::apply_numbered)),
+//!   as it takes the coloured layout's in that layout's own order.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{GridLayout, Location, Tile};
+use super::{GridLayout, Tile};
 use crate::sim::fast::kernel::{F32x8, LANES, lane};
 use crate::sim::fast::rows::Rows;
 #[cfg(target_arch = "x86_64")]
@@ -90,45 +99,127 @@ impl GridLayout {
 }
 
 impl GridLayout {
+    /// The scene index of each row of [`Self::read_starts`] and
+    /// [`Self::write_positions`]: the particles in lane order.
+    pub(super) fn lane_rows(&self) -> &[u32] {
+        &self.lane_rows
+    }
+
     /// Positions x, where the substep started (x_pred − d) and weights in
-    /// scene order (the self-collide phase's input), particle by particle
-    /// through each one's location; on the thread pool with `parallel`.
+    /// lane order ([`Self::lane_rows`]; the self-collide phase's input):
+    /// tile by tile, on the thread pool with `parallel`, each slot whose
+    /// eight lanes hold particles transposed into eight rows at once.
+    #[allow(unsafe_code)]
     pub(super) fn read_starts(&self, x: &mut [Vec3], x0: &mut [Vec3], w: &mut [f32], parallel: bool) {
-        let tiles = &self.tiles;
-        let pick = |locations: &[Location], x: &mut [Vec3], x0: &mut [Vec3], w: &mut [f32]| {
-            for (k, loc) in locations.iter().enumerate() {
-                let tile = &tiles[loc.tile as usize];
-                let (s, l) = (loc.slot as usize, loc.lane as usize);
-                x[k] = lane(&tile.position[s], l);
-                x0[k] = lane(&tile.predicted[s], l) - lane(&tile.displacement[s], l);
-                w[k] = tile.weight[s].0[l];
+        let read = |(tile, out): (&Tile, StartRows)| {
+            #[cfg(target_arch = "x86_64")]
+            if simd::level() >= SimdLevel::Avx2 {
+                // SAFETY: the level is AVX2 or above only when the CPU
+                // reports AVX2 and FMA, the features `tile_starts_avx2` is
+                // compiled for.
+                unsafe { tile_starts_avx2(tile, out) };
+                return;
             }
+            tile_starts::<F32x8>(tile, out);
         };
+        let tasks = self.tiles.iter().zip(split_rows(&self.tile_rows, x, x0, w));
         if parallel {
-            let (out, rest) = (x.par_chunks_mut(CHUNK), x0.par_chunks_mut(CHUNK).zip(w.par_chunks_mut(CHUNK)));
-            self.locations.par_chunks(CHUNK).zip(out).zip(rest).for_each(|((l, x), (x0, w))| pick(l, x, x0, w));
+            tasks.collect::<Vec<_>>().into_par_iter().for_each(read);
         } else {
-            pick(&self.locations, x, x0, w);
+            tasks.for_each(read);
         }
     }
 
-    /// Sets every particle's position from `x` (scene order): each tile
-    /// takes its own particles' positions, on the thread pool with
-    /// `parallel`.
+    /// Sets every particle's position from `x`, in lane order
+    /// ([`Self::lane_rows`]): tile by tile, on the thread pool with
+    /// `parallel`, a slot whose eight lanes hold particles from eight rows
+    /// at once.
     pub(super) fn write_positions(&mut self, x: &[Vec3], parallel: bool) {
-        let write = |tile: &mut Tile| {
+        let rows = &self.tile_rows;
+        let write = |(t, tile): (usize, &mut Tile)| {
+            let x = &x[rows[t]..rows[t + 1]];
+            let mut k = 0;
             for (position, scene) in tile.position.iter_mut().zip(&tile.scene) {
-                for (l, &i) in scene.iter().enumerate().filter(|&(_, &i)| i != u32::MAX) {
-                    for k in 0..3 {
-                        position[k].0[l] = x[i as usize][k];
+                if scene.iter().all(|&i| i != u32::MAX) {
+                    let eight = &x[k..k + LANES];
+                    for (c, axis) in position.iter_mut().enumerate() {
+                        *axis = F32x8(std::array::from_fn(|l| eight[l][c]));
                     }
+                    k += LANES;
+                    continue;
+                }
+                for l in (0..LANES).filter(|&l| scene[l] != u32::MAX) {
+                    for (c, axis) in position.iter_mut().enumerate() {
+                        axis.0[l] = x[k][c];
+                    }
+                    k += 1;
                 }
             }
         };
         if parallel {
-            self.tiles.par_iter_mut().for_each(write);
+            self.tiles.par_iter_mut().enumerate().for_each(write);
         } else {
-            self.tiles.iter_mut().for_each(write);
+            self.tiles.iter_mut().enumerate().for_each(write);
+        }
+    }
+}
+
+/// One tile's rows of [`GridLayout::read_starts`]: x, x0 and w.
+type StartRows<'a> = ((&'a mut [Vec3], &'a mut [Vec3]), &'a mut [f32]);
+
+/// `x`, `x0` and `w` cut at the tiles' first rows `starts` (the last entry
+/// the end).
+fn split_rows<'a>(
+    starts: &[usize],
+    mut x: &'a mut [Vec3],
+    mut x0: &'a mut [Vec3],
+    mut w: &'a mut [f32],
+) -> Vec<StartRows<'a>> {
+    let mut parts = Vec::with_capacity(starts.len());
+    for bounds in starts.windows(2) {
+        let n = bounds[1] - bounds[0];
+        let (a, rest_x) = std::mem::take(&mut x).split_at_mut(n);
+        let (b, rest_x0) = std::mem::take(&mut x0).split_at_mut(n);
+        let (c, rest_w) = std::mem::take(&mut w).split_at_mut(n);
+        parts.push(((a, b), c));
+        (x, x0, w) = (rest_x, rest_x0, rest_w);
+    }
+    parts
+}
+
+/// [`tile_starts`] in AVX registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn tile_starts_avx2(tile: &Tile, out: StartRows) {
+    tile_starts::<crate::sim::fast::avx::Avx>(tile, out);
+}
+
+/// One tile's x, x_pred − d and w in lane order: a slot of eight particles
+/// transposed into eight rows, others lane by lane (the same bits).
+#[inline(always)]
+fn tile_starts<R: Rows>(tile: &Tile, ((x, x0), w): StartRows) {
+    let zero = R::splat(0.0);
+    let lanes = |p: &[F32x8; 3]| [R::from_values(p[0].0), R::from_values(p[1].0), R::from_values(p[2].0)];
+    let mut k = 0;
+    let slots = tile.position.iter().zip(&tile.predicted).zip(&tile.displacement).zip(&tile.weight).zip(&tile.scene);
+    for ((((p, q), d), weight), scene) in slots {
+        if scene.iter().all(|&i| i != u32::MAX) {
+            let (p, q, d) = (lanes(p), lanes(q), lanes(d));
+            let now = R::to_rows([p[0], p[1], p[2], zero]);
+            let start = R::to_rows([q[0] - d[0], q[1] - d[1], q[2] - d[2], zero]);
+            for l in 0..LANES {
+                x[k + l] = Vec3::new(now[l][0], now[l][1], now[l][2]);
+                x0[k + l] = Vec3::new(start[l][0], start[l][1], start[l][2]);
+                w[k + l] = weight.0[l];
+            }
+            k += LANES;
+            continue;
+        }
+        for l in (0..LANES).filter(|&l| scene[l] != u32::MAX) {
+            x[k] = lane(p, l);
+            x0[k] = lane(q, l) - lane(d, l);
+            w[k] = weight.0[l];
+            k += 1;
         }
     }
 }

@@ -473,6 +473,64 @@ fn scene_rows_are_read_out_of_the_lanes_with_the_bits_of_each_particle_looked_up
 }
 
 #[test]
+fn the_self_collide_rows_in_lane_order_are_each_particles_lanes_and_go_back_to_it() {
+    // The self-collide phase reads x, x_pred − d and w in lane order (whole
+    // slots transposed, slots with padding lane by lane) and writes x back.
+    // Each row must hold the lanes of the particle `lane_rows` names, and
+    // a row written must land on that particle: a lane transposed to the
+    // wrong row, or a padded slot's rows miscounted, moves particles by
+    // centimetres.
+    let g = |columns, rows, pins| Grid { columns, rows, spacing: 0.1, pins, ..Grid::default() };
+    let cases = [
+        (g(64, 5, Pins::TopRow), "64 columns: every slot whole"),
+        (g(50, 6, Pins::TopRow), "50 columns: padding in lane 7"),
+        (g(20, 64, Pins::LeftColumn), "pinned along the left: transposed, padded"),
+        (g(130, 130, Pins::TopCorners), "130 × 130: tiles on the pool"),
+    ];
+    for (grid, what) in cases {
+        let mesh = grid.build().expect(what);
+        let start = jittered(mesh.positions(), 0.02);
+        let previous = jittered(&start, 0.01);
+        let mut layout = GridLayout::new(&mesh, &start, &previous, &weights(&mesh), None).expect(what);
+        let n = start.len();
+        // Predictions apart from the positions, so x0 is not x − d.
+        for tile in &mut layout.tiles {
+            for (q, p) in tile.predicted.iter_mut().zip(&tile.position) {
+                *q = [p[0] + F32x8::splat(0.25), p[1], p[2] - F32x8::splat(0.5)];
+            }
+        }
+        let mut rows = layout.lane_rows().to_vec();
+        rows.sort_unstable();
+        assert_eq!(rows, (0..n as u32).collect::<Vec<_>>(), "{what}: every particle once");
+        let (mut x, mut x0, mut w) = (vec![Vec3::NAN; n], vec![Vec3::NAN; n], vec![f32::NAN; n]);
+        layout.read_starts(&mut x, &mut x0, &mut w, n > 10_000);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for (k, &i) in layout.lane_rows().iter().enumerate() {
+            let loc = layout.locations[i as usize];
+            let tile = &layout.tiles[loc.tile as usize];
+            let (s, l) = (loc.slot as usize, loc.lane as usize);
+            assert_eq!(
+                bits(x[k]),
+                bits(crate::sim::fast::kernel::lane(&tile.position[s], l)),
+                "{what}: row {k}, particle {i}"
+            );
+            let lane = crate::sim::fast::kernel::lane;
+            let x0_i = lane(&tile.predicted[s], l) - lane(&tile.displacement[s], l);
+            assert_eq!(bits(x0[k]), bits(x0_i), "{what}: row {k}");
+            assert_eq!(w[k].to_bits(), tile.weight[s].0[l].to_bits(), "{what}: row {k}");
+        }
+        // Each row moved by its own amount, written back, read in scene order.
+        let moved: Vec<Vec3> = x.iter().enumerate().map(|(k, p)| *p + Vec3::new(k as f32 * 1e-3, 1.0, 0.0)).collect();
+        layout.write_positions(&moved, n > 10_000);
+        let (mut now, mut before) = (vec![Vec3::NAN; n], vec![Vec3::NAN; n]);
+        layout.read(&mut now, &mut before);
+        for (k, &i) in layout.lane_rows().iter().enumerate() {
+            assert_eq!(bits(now[i as usize]), bits(moved[k]), "{what}: row {k} back to particle {i}");
+        }
+    }
+}
+
+#[test]
 fn the_air_on_the_lanes_moves_each_particle_as_in_scene_order() {
     // 90 × 12: two tiles of eight lanes of 6 columns, 6 columns of padding.
     // 130 × 130: large enough for the thread pool (tiles in parallel).
