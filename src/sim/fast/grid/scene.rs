@@ -122,11 +122,11 @@ impl GridLayout {
             }
             tile_starts::<F32x8>(tile, out);
         };
-        let tasks = self.tiles.iter().zip(split_rows(&self.tile_rows, x, x0, w));
+        let parts = split_rows(&self.tile_rows, x, x0, w);
         if parallel {
-            tasks.collect::<Vec<_>>().into_par_iter().for_each(read);
+            self.tiles.par_iter().zip(parts).for_each(read);
         } else {
-            tasks.for_each(read);
+            self.tiles.iter().zip(parts).for_each(read);
         }
     }
 
@@ -142,6 +142,7 @@ impl GridLayout {
             for (position, scene) in tile.position.iter_mut().zip(&tile.scene) {
                 if scene.iter().all(|&i| i != u32::MAX) {
                     let eight = &x[k..k + LANES];
+                    // One bounds check a slot: `eight` is eight rows long.
                     for (c, axis) in position.iter_mut().enumerate() {
                         *axis = F32x8(std::array::from_fn(|l| eight[l][c]));
                     }
@@ -207,10 +208,12 @@ fn tile_starts<R: Rows>(tile: &Tile, ((x, x0), w): StartRows) {
             let (p, q, d) = (lanes(p), lanes(q), lanes(d));
             let now = R::to_rows([p[0], p[1], p[2], zero]);
             let start = R::to_rows([q[0] - d[0], q[1] - d[1], q[2] - d[2], zero]);
+            // One bounds check a slot and table: each is eight rows long.
+            let rows = (&mut x[k..k + LANES], &mut x0[k..k + LANES], &mut w[k..k + LANES]);
             for l in 0..LANES {
-                x[k + l] = Vec3::new(now[l][0], now[l][1], now[l][2]);
-                x0[k + l] = Vec3::new(start[l][0], start[l][1], start[l][2]);
-                w[k + l] = weight.0[l];
+                rows.0[l] = Vec3::new(now[l][0], now[l][1], now[l][2]);
+                rows.1[l] = Vec3::new(start[l][0], start[l][1], start[l][2]);
+                rows.2[l] = weight.0[l];
             }
             k += LANES;
             continue;
