@@ -139,3 +139,25 @@ fn a_settled_pile_keeps_its_pairs_and_a_falling_strip_searches_every_substep() {
     assert!(rest_searches * 4 <= rest_substeps, "settled: {rest_searches} searches in {rest_substeps}");
     assert!(format!("{settled}").contains(&format!("{rest_searches} searches in 480 substeps")));
 }
+
+#[test]
+fn a_solver_switch_searches_anew_in_the_new_solvers_row_order() {
+    // Each solver gives the self-collide phase its particles in its own row
+    // order (the grid its lanes, the reference solver scene order), and a
+    // kept list names rows. After a switch the phase starts over: its
+    // first substep searches, and its counts restart (1 search in 8
+    // substeps, `pile`'s substeps a step, where the settled pile's list
+    // would have served the step with no search at all).
+    let mut sim = settled("pile", true, SolverKind::Fast, 240);
+    let (searches, substeps) = sim.self_collision_searches().expect("self-collision is on");
+    assert!(searches > 0 && substeps == 240 * 8, "{searches} in {substeps}");
+    sim.set_solver(SolverKind::Reference);
+    sim.advance(1).unwrap();
+    let (searches, substeps) = sim.self_collision_searches().expect("self-collision is on");
+    assert_eq!(substeps, 8, "the counts restart with the new solver");
+    assert!(searches >= 1, "the first substep after a switch searches");
+    // And the layers stay apart on the new solver.
+    sim.advance(30).unwrap();
+    let (d, i, j) = closest_unrelated_pair(&sim);
+    assert!(d >= 0.5 * 0.015, "particles {i} and {j} are {d} m apart after the switch");
+}

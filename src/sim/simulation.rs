@@ -759,6 +759,11 @@ impl Simulation {
         let state = (&self.positions[..], &self.previous[..]);
         let tethers = self.tethers();
         self.solver = build_solver(self.kind, &self.mesh, state, &self.inverse_mass, tethers);
+        // The self-collide phase's kept pairs are numbered in the old
+        // solver's row order (each solver gives its own): search anew.
+        if let Some(phase) = &mut self.self_contact {
+            *phase = SelfContact::new(self.mesh.positions());
+        }
         // The air phase reads the new solver's lanes, or rows.
         self.aero = aerodynamics(&self.mesh, &self.params, &self.material, self.solver.as_ref());
     }
