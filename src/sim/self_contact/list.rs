@@ -85,7 +85,7 @@ pub(super) struct Candidates {
     pub(super) ends: Vec<u32>,
     /// d_min = min(r, |X_i − X_j|) of each pair, metres (filled once the
     /// pairs are in their final order, when the list is to be kept).
-    pub(super) keep: Vec<f32>,
+    pub(super) d_min: Vec<f32>,
 }
 
 impl Candidates {

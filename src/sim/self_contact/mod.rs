@@ -183,7 +183,7 @@ fn pairs_body(phase: &SelfContact, chunk: usize, plan: Plan, step: &SelfContactS
                 [row[0], row[1], row[2]]
             };
             let own_other = kept.own.iter().zip(&kept.other);
-            kept.keep = own_other.map(|(&i, &j)| d_min(rest(i), rest(j), step.thickness)).collect();
+            kept.d_min = own_other.map(|(&i, &j)| d_min(rest(i), rest(j), step.thickness)).collect();
             push_close(&kept, point, r2, pairs);
             pairs.kept = kept;
         }
@@ -289,7 +289,7 @@ fn corrections(
     let (other_listed, other_found) = pairs.moved_other.split_at_mut(pairs.listed);
     if let Some(listed) = listed.filter(|_| pairs.listed > 0) {
         let moves = Moves { own: own_listed, other: other_listed };
-        let pairs = PairSlots { own: &listed.own, other: &listed.other, listed: Some(&listed.keep) };
+        let pairs = PairSlots { own: &listed.own, other: &listed.other, listed: Some(&listed.d_min) };
         pair_corrections(&slots, &pairs, moves, step);
     }
     let moves = Moves { own: own_found, other: other_found };

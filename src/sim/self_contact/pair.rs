@@ -108,22 +108,22 @@ fn corrections_in<T: Rows>(slots: &Slots, pairs: &PairSlots, out: Moves, step: &
     let (own, other) = (pairs.own, pairs.other);
     match pairs.listed {
         None => corrections_of::<T, false>(slots, own, other, &[], out, step),
-        Some(keep) => corrections_of::<T, true>(slots, own, other, keep, out, step),
+        Some(given) => corrections_of::<T, true>(slots, own, other, given, out, step),
     }
 }
 
 /// [`corrections_in`], with `LISTED` for a kept list's pairs, whose d_min
-/// is `keep`: whole batches of eight pairs, then the last one padded.
+/// is `given`: whole batches of eight pairs, then the last one padded.
 #[inline(always)]
 fn corrections_of<T: Rows, const LISTED: bool>(
     slots: &Slots,
     own: &[u32],
     other: &[u32],
-    keep: &[f32],
+    given: &[f32],
     out: Moves,
     step: &SelfContactStep,
 ) {
-    debug_assert!(!LISTED || keep.len() == own.len(), "one d_min a listed pair");
+    debug_assert!(!LISTED || given.len() == own.len(), "one d_min a listed pair");
     let tail = own.len() / LANES * LANES;
     let batches = own[..tail].chunks_exact(LANES).zip(other[..tail].chunks_exact(LANES));
     let outs = out.own[..tail].chunks_exact_mut(LANES).zip(out.other[..tail].chunks_exact_mut(LANES));
@@ -131,8 +131,8 @@ fn corrections_of<T: Rows, const LISTED: bool>(
         let a: [usize; LANES] = each_lane!(|l| own[l] as usize);
         let b: [usize; LANES] = each_lane!(|l| other[l] as usize);
         // One bounds check a batch (the slice is eight long).
-        let keep = if LISTED { keep[k * LANES..][..LANES].try_into().unwrap_or([0.0; LANES]) } else { [0.0; LANES] };
-        let [moved_i, moved_j] = batch::<T, LISTED>(slots, &a, &b, keep, step);
+        let d_mins = if LISTED { given[k * LANES..][..LANES].try_into().unwrap_or([0.0; LANES]) } else { [0.0; LANES] };
+        let [moved_i, moved_j] = batch::<T, LISTED>(slots, &a, &b, d_mins, step);
         store(moved_i, out_i);
         store(moved_j, out_j);
     }
@@ -140,8 +140,8 @@ fn corrections_of<T: Rows, const LISTED: bool>(
         // Lanes past the end pair slot 0 with itself: d = 0, nothing.
         let a: [usize; LANES] = std::array::from_fn(|l| own.get(tail + l).map_or(0, |&s| s as usize));
         let b: [usize; LANES] = std::array::from_fn(|l| other.get(tail + l).map_or(0, |&s| s as usize));
-        let keep: [f32; LANES] = std::array::from_fn(|l| keep.get(tail + l).copied().unwrap_or(0.0));
-        let [moved_i, moved_j] = batch::<T, LISTED>(slots, &a, &b, keep, step);
+        let d_mins: [f32; LANES] = std::array::from_fn(|l| given.get(tail + l).copied().unwrap_or(0.0));
+        let [moved_i, moved_j] = batch::<T, LISTED>(slots, &a, &b, d_mins, step);
         let (mut i, mut j) = ([Vec3A::ZERO; LANES], [Vec3A::ZERO; LANES]);
         store(moved_i, &mut i);
         store(moved_j, &mut j);
@@ -152,14 +152,14 @@ fn corrections_of<T: Rows, const LISTED: bool>(
 }
 
 /// The moves of slots `a[l]` and `b[l]`'s pairs ([`rule`]); with
-/// `LISTED`, d_min is `keep[l]`, and nothing where an end's start row is
+/// `LISTED`, d_min is `d_mins[l]`, and nothing where an end's start row is
 /// marked or both ends are pinned (else d_min from the rest rows).
 #[inline(always)]
 fn batch<T: Rows, const LISTED: bool>(
     slots: &Slots,
     a: &[usize; LANES],
     b: &[usize; LANES],
-    keep: [f32; LANES],
+    d_mins: [f32; LANES],
     step: &SelfContactStep,
 ) -> [Point<T>; 2] {
     let point = |rows: &[[f32; 4]], s: &[usize; LANES]| -> Point<T> {
@@ -171,7 +171,7 @@ fn batch<T: Rows, const LISTED: bool>(
     let [x0i0, x0i1, x0i2, mark_i] = T::gather(slots.start, a);
     let [x0j0, x0j1, x0j2, mark_j] = T::gather(slots.start, b);
     let keep = match LISTED {
-        true => T::from_values(keep),
+        true => T::from_values(d_mins),
         false => d_min(point(slots.rest, a), point(slots.rest, b), T::splat(step.thickness)),
     };
     let [moved_i, moved_j] =
@@ -181,19 +181,19 @@ fn batch<T: Rows, const LISTED: bool>(
     }
     // Marks are 0 or 1: their sum is 0 only when neither end is marked.
     let (zero, half) = (T::splat(0.0), T::splat(0.5));
-    let keep = T::if_greater(wi + wj, zero, T::if_greater(mark_i + mark_j, half, zero, T::splat(1.0)), zero);
+    let acts = T::if_greater(wi + wj, zero, T::if_greater(mark_i + mark_j, half, zero, T::splat(1.0)), zero);
     // Written out: a closure mapped over the points was left a call per
     // select.
     [
         [
-            T::if_greater(keep, half, moved_i[0], zero),
-            T::if_greater(keep, half, moved_i[1], zero),
-            T::if_greater(keep, half, moved_i[2], zero),
+            T::if_greater(acts, half, moved_i[0], zero),
+            T::if_greater(acts, half, moved_i[1], zero),
+            T::if_greater(acts, half, moved_i[2], zero),
         ],
         [
-            T::if_greater(keep, half, moved_j[0], zero),
-            T::if_greater(keep, half, moved_j[1], zero),
-            T::if_greater(keep, half, moved_j[2], zero),
+            T::if_greater(acts, half, moved_j[0], zero),
+            T::if_greater(acts, half, moved_j[1], zero),
+            T::if_greater(acts, half, moved_j[2], zero),
         ],
     ]
 }
