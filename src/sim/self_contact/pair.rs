@@ -105,24 +105,17 @@ pub(super) fn pair_corrections(slots: &Slots, pairs: &PairSlots, out: Moves, ste
 /// the plain loop's registers).
 #[inline(always)]
 fn corrections_in<T: Rows>(slots: &Slots, pairs: &PairSlots, out: Moves, step: &SelfContactStep) {
-    let (own, other) = (pairs.own, pairs.other);
     match pairs.listed {
-        None => corrections_of::<T, false>(slots, own, other, &[], out, step),
-        Some(given) => corrections_of::<T, true>(slots, own, other, given, out, step),
+        None => corrections_of::<T, false>(slots, pairs, out, step),
+        Some(_) => corrections_of::<T, true>(slots, pairs, out, step),
     }
 }
 
-/// [`corrections_in`], with `LISTED` for a kept list's pairs, whose d_min
-/// is `given`: whole batches of eight pairs, then the last one padded.
+/// [`corrections_in`], with `LISTED` when `pairs` are a kept list's (their
+/// d_min given): whole batches of eight pairs, then the last one padded.
 #[inline(always)]
-fn corrections_of<T: Rows, const LISTED: bool>(
-    slots: &Slots,
-    own: &[u32],
-    other: &[u32],
-    given: &[f32],
-    out: Moves,
-    step: &SelfContactStep,
-) {
+fn corrections_of<T: Rows, const LISTED: bool>(slots: &Slots, pairs: &PairSlots, out: Moves, step: &SelfContactStep) {
+    let (own, other, given) = (pairs.own, pairs.other, pairs.listed.unwrap_or(&[]));
     debug_assert!(!LISTED || given.len() == own.len(), "one d_min a listed pair");
     let tail = own.len() / LANES * LANES;
     let batches = own[..tail].chunks_exact(LANES).zip(other[..tail].chunks_exact(LANES));

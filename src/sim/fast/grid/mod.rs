@@ -241,6 +241,14 @@ struct Tile {
     seam_ends: Vec<u32>,
 }
 
+impl Tile {
+    /// Whether every lane of slot `s` holds a particle: any slot of a tile
+    /// without padding (`presence` empty), else the slot's scene indices.
+    fn slot_is_full(&self, s: usize) -> bool {
+        self.presence.is_empty() || self.scene[s].iter().all(|&i| i != u32::MAX)
+    }
+}
+
 /// A tile's seam bars (in row order, as built) in groups of at most eight
 /// that share no particle, and where each group ends.
 ///

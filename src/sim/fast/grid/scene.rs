@@ -139,8 +139,10 @@ impl GridLayout {
         let write = |(t, tile): (usize, &mut Tile)| {
             let x = &x[rows[t]..rows[t + 1]];
             let mut k = 0;
-            for (position, scene) in tile.position.iter_mut().zip(&tile.scene) {
-                if scene.iter().all(|&i| i != u32::MAX) {
+            for s in 0..tile.position.len() {
+                let full = tile.slot_is_full(s);
+                let (position, scene) = (&mut tile.position[s], &tile.scene[s]);
+                if full {
                     let eight = &x[k..k + LANES];
                     // One bounds check a slot: `eight` is eight rows long.
                     for (c, axis) in position.iter_mut().enumerate() {
@@ -203,8 +205,8 @@ fn tile_starts<R: Rows>(tile: &Tile, ((x, x0), w): StartRows) {
     let lanes = |p: &[F32x8; 3]| [R::from_values(p[0].0), R::from_values(p[1].0), R::from_values(p[2].0)];
     let mut k = 0;
     let slots = tile.position.iter().zip(&tile.predicted).zip(&tile.displacement).zip(&tile.weight).zip(&tile.scene);
-    for ((((p, q), d), weight), scene) in slots {
-        if scene.iter().all(|&i| i != u32::MAX) {
+    for (s, ((((p, q), d), weight), scene)) in slots.enumerate() {
+        if tile.slot_is_full(s) {
             let (p, q, d) = (lanes(p), lanes(q), lanes(d));
             let now = R::to_rows([p[0], p[1], p[2], zero]);
             let start = R::to_rows([q[0] - d[0], q[1] - d[1], q[2] - d[2], zero]);
