@@ -12,8 +12,10 @@
 //! Three passes, each on the thread pool for large cloths:
 //! 1. tile by tile, while the tile is in cache: x copied out,
 //!    u = v_air(x) − d/(h/n) on each element (`noise`: lanes in several
-//!    cells of the noise take each its own), and the forces of the aligned
-//!    octets inside the tile;
+//!    cells of the noise take each its own, and each lane holds its cell's
+//!    lattice values from one element to the next, so only a lane that
+//!    crossed into another cell takes new ones), and the forces of the
+//!    aligned octets inside the tile;
 //! 2. the aligned octets across tiles and the gathered triangles;
 //! 3. after integration, each element's eight sums, made as the solver
 //!    adds them to its lanes ([`Lanes::push_lanes`]): the element's aligned

@@ -136,55 +136,74 @@ impl Field {
     }
 
     /// v_air at eight points in lanes, whichever cells of the noise they
-    /// fall in: each lane blends the lattice values of its own cell (one
-    /// cell's values taken by every lane in it, cell after cell), then one
-    /// interpolation serves all eight. Each lane has the bits of
-    /// [`Self::at`]; a lane whose point is not a point (a NaN) is NaN.
-    /// For points a solver's lanes hold (a slot: eight particles a block of
-    /// columns apart), which span one or two cells where neighbours in
-    /// scene order mostly share one ([`Self::at_lanes`]).
+    /// fall in: each lane blends the lattice values of its own cell, which
+    /// `held` keeps from the last points it was given. Only the lanes whose
+    /// cell changed take new values (one cell's values taken by every lane
+    /// in it, cell after cell), then one interpolation serves all eight.
+    /// Each lane has the bits of [`Self::at`]; a lane whose point is not a
+    /// point (a NaN) is NaN. For points a solver's lanes hold (a slot:
+    /// eight particles a block of columns apart), which span several cells
+    /// where neighbours in scene order mostly share one
+    /// ([`Self::at_lanes`]); slot after slot along a block's row, a lane
+    /// stays in its cell for many slots.
     #[inline(always)]
-    pub(super) fn at_any_lanes<T: Rows>(&self, x: Point<T>, cell: &mut Cell) -> Point<T> {
+    pub(super) fn at_held_lanes<T: Rows>(&self, x: Point<T>, held: &mut LaneCells<T>, cell: &mut Cell) -> Point<T> {
         if self.steady {
             return self.mean_lanes();
         }
         let (q, floor) = self.lattice_point(x);
-        let first = [floor[0].first(), floor[1].first(), floor[2].first()];
         let all = (1u32 << LANES) - 1;
-        let same = in_cell(&floor, first);
-        let corners: [Point<T>; 8] = if same == all {
-            // One cell (the common case): its values in every lane.
-            splat_corners(cell.corners_of([first[0] as i32, first[1] as i32, first[2] as i32]))
-        } else {
-            // Cell after cell, each lane taking its own cell's values; a lane
-            // no cell takes (a NaN) keeps NaN.
-            let mut corners = [[T::splat(f32::NAN); 3]; 8];
+        // A NaN floor equals nothing: a lost lane is looked at every time.
+        let kept = floor[0].equal_bits(held.floor[0])
+            & floor[1].equal_bits(held.floor[1])
+            & floor[2].equal_bits(held.floor[2]);
+        if kept != all {
             let floors = [floor[0].to_values(), floor[1].to_values(), floor[2].to_values()];
-            let mut left = all;
+            let mut left = all & !kept;
             while left != 0 {
                 let l = left.trailing_zeros() as usize;
                 let f = [floors[0][l], floors[1][l], floors[2][l]];
                 let same = in_cell(&floor, f);
                 left &= !same & !(1 << l);
                 if same == 0 {
+                    // A NaN, which no cell takes: the lane keeps whatever it
+                    // held, and its NaN offsets make it NaN.
                     continue;
                 }
                 // The floors are whole numbers: the sum of their distances
                 // to the cell's is 0 in the cell and at least 1 elsewhere
-                // (NaN for a NaN, which no cell takes).
+                // (NaN for a NaN). A kept lane in this cell takes the
+                // values it holds.
                 let off = (floor[0] - T::splat(f[0])).abs()
                     + (floor[1] - T::splat(f[1])).abs()
                     + (floor[2] - T::splat(f[2])).abs();
                 let half = T::splat(0.5);
-                for (lanes, c) in corners.iter_mut().zip(cell.corners_of([f[0] as i32, f[1] as i32, f[2] as i32])) {
+                let values = cell.corners_of([f[0] as i32, f[1] as i32, f[2] as i32]);
+                for (lanes, c) in held.corners.iter_mut().zip(values) {
                     for k in 0..3 {
                         lanes[k] = T::if_greater(half, off, T::splat(c[k]), lanes[k]);
                     }
                 }
             }
-            corners
-        };
-        self.blend(&corners, q, floor)
+            held.floor = floor;
+        }
+        self.blend(&held.corners, q, floor)
+    }
+}
+
+/// Each lane's cell of the noise (its floors) and that cell's lattice
+/// values at its eight corners, held from one call of
+/// [`Field::at_held_lanes`] to the next. Empty at first (NaN floors,
+/// which no lane's floor equals).
+pub(super) struct LaneCells<T> {
+    floor: Point<T>,
+    corners: [Point<T>; 8],
+}
+
+impl<T: Real> Default for LaneCells<T> {
+    fn default() -> Self {
+        let nan = T::splat(f32::NAN);
+        Self { floor: [nan; 3], corners: [[nan; 3]; 8] }
     }
 }
 
@@ -238,7 +257,7 @@ mod avx2 {
 /// [`relative_air`] on points in lanes ([`PointLanes`], eight places an
 /// element, as a solver's lanes hold them): u = v_air(x) − d/`dt`, with d
 /// = x − x_prev the displacement the solver keeps. Eight places at a time
-/// whichever cells of the noise they fall in ([`Field::at_any_lanes`]); no
+/// whichever cells of the noise they fall in ([`Field::at_held_lanes`]); no
 /// transposes in or out.
 #[allow(unsafe_code)]
 pub(super) fn relative_lanes(field: &Field, dt: f32, x: &[PointLanes], d: &[PointLanes], relative: &mut [PointLanes]) {
@@ -255,12 +274,12 @@ pub(super) fn relative_lanes(field: &Field, dt: f32, x: &[PointLanes], d: &[Poin
 /// [`relative_lanes`] on lanes of type `T`.
 #[inline(always)]
 fn relative_lanes_in<T: Rows>(field: &Field, dt: f32, x: &[PointLanes], d: &[PointLanes], relative: &mut [PointLanes]) {
-    let mut cell = Cell::default();
+    let (mut cell, mut held) = (Cell::default(), LaneCells::default());
     let dt = T::splat(dt);
     for ((u, x), d) in relative.iter_mut().zip(x).zip(d) {
         let x = [T::from_values(x[0]), T::from_values(x[1]), T::from_values(x[2])];
         let d = [T::from_values(d[0]), T::from_values(d[1]), T::from_values(d[2])];
-        let air = field.at_any_lanes(x, &mut cell);
+        let air = field.at_held_lanes(x, &mut held, &mut cell);
         u[0] = (air[0] - d[0] / dt).to_values();
         u[1] = (air[1] - d[1] / dt).to_values();
         u[2] = (air[2] - d[2] / dt).to_values();
@@ -389,7 +408,7 @@ fn splat_corners<T: Real>(c: &[Vec3; 8]) -> [Point<T>; 8] {
 }
 
 /// [`interpolate`] with each lane's own corner values (lanes in several
-/// cells: [`Field::at_any_lanes`]); the same operations in the same order.
+/// cells: [`Field::at_held_lanes`]); the same operations in the same order.
 #[inline(always)]
 fn interpolate_lanes<T: Real>(c: &[Point<T>; 8], t: Point<T>) -> Point<T> {
     [interpolate_axis(c, t, 0), interpolate_axis(c, t, 1), interpolate_axis(c, t, 2)]
@@ -537,18 +556,25 @@ mod tests {
         relative_lanes_in::<Wide>(&field, 0.01, &x, &displacement, &mut portable);
         let bits = |r: &[PointLanes]| r.iter().flatten().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&portable), bits(&relative));
-        // Both ways were taken: slots across cells, and one in a single cell.
+        // Every way was taken: slots across cells, and one in a single cell;
+        // from one slot to the next, lanes that keep their cell (the values
+        // held) and lanes that change it (new values), besides the lost lane
+        // and the one after it.
+        let cell_of = |e: usize, l: usize| {
+            ((point(e, l) - field.shift) / field.scale + field.drift).floor().as_ivec3().to_array()
+        };
         let cells = |e: usize| {
-            let mut cells: Vec<[i32; 3]> = (0..LANES)
-                .filter(|&l| (e, l) != (3, 5))
-                .map(|l| ((point(e, l) - field.shift) / field.scale + field.drift).floor().as_ivec3().to_array())
-                .collect();
+            let mut cells: Vec<[i32; 3]> = (0..LANES).filter(|&l| (e, l) != (3, 5)).map(|l| cell_of(e, l)).collect();
             cells.sort();
             cells.dedup();
             cells.len()
         };
         assert!((0..6).filter(|&e| cells(e) > 1).count() >= 3, "{:?}", (0..6).map(cells).collect::<Vec<_>>());
         assert_eq!(cells(5), 1);
+        let kept =
+            (1..6).flat_map(|e| (0..LANES).map(move |l| (e, l))).filter(|&(e, l)| cell_of(e, l) == cell_of(e - 1, l));
+        let kept = kept.count();
+        assert!((5..35).contains(&kept), "{kept} of 40 lanes kept their cell from the slot before");
     }
 
     #[test]
