@@ -19,14 +19,20 @@
 //! 2. the aligned octets across tiles and the gathered triangles;
 //! 3. after integration, each element's eight sums, made as the solver
 //!    adds them to its lanes ([`Lanes::push_lanes`]): the element's aligned
-//!    octets summed in lanes, then its other triangles lane by lane.
+//!    octets summed in lanes, then its other triangles in rounds of eight
+//!    rows, one a lane (round r brings each lane its r-th other triangle,
+//!    or −0, which adds nothing), so each lane adds the same values in the
+//!    same order as one lane at a time would.
 
 use rayon::prelude::*;
 
 use super::noise::{self, Field};
 use super::{AeroStep, PointLanes, TRIANGLES, csr, force};
-use crate::sim::fast::kernel::{F32x8, LANES, Real};
-use crate::sim::fast::simd::dispatch;
+use crate::sim::fast::kernel::LANES;
+use crate::sim::fast::rows::Rows;
+#[cfg(target_arch = "x86_64")]
+use crate::sim::fast::simd::{self, SimdLevel};
+use crate::sim::fast::wide_lanes::Wide;
 use crate::sim::step::{LanePlaces, Lanes};
 
 #[derive(Clone, Debug)]
@@ -45,17 +51,20 @@ pub(super) struct LaneForm {
     triangle_mass: Vec<f32>,
     /// A third of each aligned octet's forces, N, as lanes.
     octet_force: Vec<PointLanes>,
-    /// A third of the force of each triangle of `triangles`, N, as rows.
+    /// A third of the force of each triangle of `triangles`, N, as rows,
+    /// then a row of −0 (what a round gives a lane it has nothing for).
     third_force: Vec<[f32; 4]>,
     /// The aligned octets with a corner in element e:
     /// `octets[octet_offsets[e]..octet_offsets[e + 1]]`. Lane l of each is
     /// a triangle of place 8e + l, and these are all its aligned ones.
     octet_offsets: Vec<u32>,
     octets: Vec<u32>,
-    /// Element e's other triangles, `(lane, index in third_force)`:
-    /// `extras[extra_offsets[e]..extra_offsets[e + 1]]`.
+    /// Element e's other triangles in rounds,
+    /// `extras[extra_offsets[e]..extra_offsets[e + 1]]`: lane l of round r
+    /// is the index in `third_force` of the r-th other triangle of place
+    /// 8e + l, or of the row of −0 when it has fewer.
     extra_offsets: Vec<u32>,
-    extras: Vec<(u32, u32)>,
+    extras: Vec<[u32; LANES]>,
     /// Positions x, copied out of the lanes as the air's velocity is
     /// computed (the triangles read corners by element).
     x: Vec<PointLanes>,
@@ -141,14 +150,14 @@ impl LaneForm {
             .iter()
             .enumerate()
             .flat_map(|(at, &k)| placed[k as usize].map(|p| (p / LANES as u32, (p % LANES as u32, at as u32))));
-        let (extra_offsets, extras) = csr(elements, extra);
+        let (extra_offsets, extras) = rounds(elements, csr(elements, extra), rest.len() as u32);
         let zero = [[0.0; LANES]; 3];
         Self {
             octet_force: vec![zero; aligned.len()],
             aligned,
             tile_octets,
             tile_starts,
-            third_force: vec![[0.0; 4]; rest.len()],
+            third_force: std::iter::repeat_n([0.0; 4], rest.len()).chain([[-0.0; 4]]).collect(),
             triangles: rest.iter().map(|&k| placed[k as usize]).collect(),
             triangle_mass,
             octet_offsets,
@@ -218,7 +227,8 @@ impl LaneForm {
             .chunks_mut(OCTETS)
             .zip(across.chunks(OCTETS).zip(across_masses.chunks(TRIANGLES)))
             .map(|(out, (octets, masses))| ForceTask::Aligned(out, octets, masses));
-        let gathered_tasks = third_force
+        // The row of −0 at the end is not a triangle's.
+        let gathered_tasks = third_force[..triangles.len()]
             .chunks_mut(TRIANGLES)
             .zip(triangles.chunks(TRIANGLES).zip(rest_masses.chunks(TRIANGLES)))
             .map(|(out, (triangles, masses))| ForceTask::Gathered(out, triangles, masses));
@@ -270,41 +280,147 @@ enum ForceTask<'a> {
     Gathered(&'a mut [[f32; 4]], &'a [[u32; 3]], &'a [f32]),
 }
 
-dispatch! {
-    /// (h/n)² F / m̄ at the eight places of one element: each lane the sum
-    /// of its place's triangles' thirds, `octets` (lane l of each) in
-    /// lanes, then `extras` (lane, index in `rest`) one by one, times
-    /// `scale`.
-    fn element_sum(
-        octet_force: &[PointLanes],
-        octets: &[u32],
-        extras: &[(u32, u32)],
-        rest: &[[f32; 4]],
-        scale: f32,
-    ) -> PointLanes = element_sum_body, best = ["x86_64+avx2+fma"]
-}
-
-#[inline(always)]
-fn element_sum_body(
+/// (h/n)² F / m̄ at the eight places of one element: each lane the sum
+/// of its place's triangles' thirds, `octets` (lane l of each) in lanes,
+/// then `rounds` of `rest`'s rows (lane l of each round its place's next
+/// other triangle, or the row of −0), times `scale`.
+#[allow(unsafe_code)]
+fn element_sum(
     octet_force: &[PointLanes],
     octets: &[u32],
-    extras: &[(u32, u32)],
+    rounds: &[[u32; LANES]],
     rest: &[[f32; 4]],
     scale: f32,
 ) -> PointLanes {
-    let mut sum = [F32x8::splat(0.0); 3];
+    #[cfg(target_arch = "x86_64")]
+    if simd::level() >= SimdLevel::Avx2 {
+        // SAFETY: the level is AVX2 or above only when the CPU reports AVX2
+        // and FMA, the features `avx2::element_sum` is compiled for.
+        return unsafe { avx2::element_sum(octet_force, octets, rounds, rest, scale) };
+    }
+    element_sum_in::<Wide>(octet_force, octets, rounds, rest, scale)
+}
+
+/// [`element_sum`] in AVX registers.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{LANES, PointLanes, element_sum_in};
+    use crate::sim::fast::avx::Avx;
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn element_sum(
+        octet_force: &[PointLanes],
+        octets: &[u32],
+        rounds: &[[u32; LANES]],
+        rest: &[[f32; 4]],
+        scale: f32,
+    ) -> PointLanes {
+        element_sum_in::<Avx>(octet_force, octets, rounds, rest, scale)
+    }
+}
+
+/// [`element_sum`] on lanes of type `T`. Each lane adds the same values in
+/// the same order as it would alone (−0 adds nothing to any sum, −0
+/// included), so the sums have the bits of one lane at a time.
+#[inline(always)]
+fn element_sum_in<T: Rows>(
+    octet_force: &[PointLanes],
+    octets: &[u32],
+    rounds: &[[u32; LANES]],
+    rest: &[[f32; 4]],
+    scale: f32,
+) -> PointLanes {
+    let mut sum = [T::splat(0.0); 3];
     for &j in octets {
         let f = &octet_force[j as usize];
         for k in 0..3 {
-            sum[k] = sum[k] + F32x8(f[k]);
+            sum[k] = sum[k] + T::from_values(f[k]);
         }
     }
-    for &(l, at) in extras {
-        let f = &rest[at as usize];
-        for k in 0..3 {
-            sum[k].0[l as usize] += f[k];
-        }
+    for round in rounds {
+        let [x, y, z, _] = T::gather(rest, &round.map(|at| at as usize));
+        sum = [sum[0] + x, sum[1] + y, sum[2] + z];
     }
-    let scale = F32x8::splat(scale);
-    [(sum[0] * scale).0, (sum[1] * scale).0, (sum[2] * scale).0]
+    let scale = T::splat(scale);
+    [(sum[0] * scale).to_values(), (sum[1] * scale).to_values(), (sum[2] * scale).to_values()]
+}
+
+/// Each element's other triangles `(lane, index)` (`csr`: offsets by
+/// element, then the pairs) as rounds ([`LaneForm::extras`]), the lanes
+/// with fewer given `none`.
+fn rounds(elements: usize, (offsets, extras): (Vec<u32>, Vec<(u32, u32)>), none: u32) -> (Vec<u32>, Vec<[u32; LANES]>) {
+    let mut round_offsets = Vec::with_capacity(elements + 1);
+    let mut rounds: Vec<[u32; LANES]> = Vec::new();
+    round_offsets.push(0);
+    for e in 0..elements {
+        let first = rounds.len();
+        let mut taken = [0usize; LANES];
+        for &(l, at) in &extras[offsets[e] as usize..offsets[e + 1] as usize] {
+            let r = first + taken[l as usize];
+            if r == rounds.len() {
+                rounds.push([none; LANES]);
+            }
+            rounds[r][l as usize] = at;
+            taken[l as usize] += 1;
+        }
+        round_offsets.push(rounds.len() as u32);
+    }
+    (round_offsets, rounds)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rounds_give_each_lane_its_own_sums_in_order() {
+        // Three elements: the first with no other triangles, the second
+        // with three in lane 2, one in lane 5 and two in lane 7 (three
+        // rounds), the third with one in lane 0. Each lane's sum must add
+        // the octets, then its own rows in their order, as one lane alone
+        // does: values of mixed sizes, so that another order rounds
+        // differently.
+        let extras = vec![(2, 4), (7, 1), (2, 0), (5, 3), (7, 5), (2, 2), (0, 6)];
+        let offsets = vec![0, 0, 6, 7];
+        let (round_offsets, rounds) = rounds(3, (offsets.clone(), extras.clone()), 7);
+        assert_eq!(round_offsets, [0, 0, 3, 4]);
+        let rest: Vec<[f32; 4]> = [1e8, 1.5, -1e8, 3.0, 0.5, 2.0, 7.0]
+            .into_iter()
+            .map(|v: f32| [v, -v * 0.37, v * 1.9, 0.0])
+            .chain([[-0.0; 4]])
+            .collect();
+        let octet_force: Vec<PointLanes> = (0..2)
+            .map(|j| [0, 1, 2].map(|k| std::array::from_fn(|l| 0.1 + (j * 31 + k * 7 + l) as f32 * 0.3)))
+            .collect();
+        let octets = [1, 0];
+        let scale = 0.73;
+        for e in 0..3 {
+            let mine = &extras[offsets[e] as usize..offsets[e + 1] as usize];
+            let round = &rounds[round_offsets[e] as usize..round_offsets[e + 1] as usize];
+            let expected: PointLanes = [0, 1, 2].map(|k| {
+                std::array::from_fn(|l| {
+                    let mut sum = 0.0f32;
+                    for &j in &octets {
+                        sum += octet_force[j as usize][k][l];
+                    }
+                    for &(_, at) in mine.iter().filter(|&&(lane, _)| lane as usize == l) {
+                        sum += rest[at as usize][k];
+                    }
+                    sum * scale
+                })
+            });
+            let bits = |p: PointLanes| p.map(|c| c.map(f32::to_bits));
+            let level = element_sum(&octet_force, &octets, round, &rest, scale);
+            let portable = element_sum_in::<Wide>(&octet_force, &octets, round, &rest, scale);
+            assert_eq!(bits(level), bits(expected), "element {e}");
+            assert_eq!(bits(portable), bits(expected), "element {e}, portable");
+        }
+        // Lane 2 of element 1 adds rows 4, 0 and 2 in that order: 0.5, then
+        // 10⁸, which absorbs it and the octets' sum, then −10⁸. By row
+        // (0, 2, 4) the sum would keep the 0.5, so the test sees the order.
+        let start: f32 = octets.iter().map(|&j| octet_force[j as usize][0][2]).sum();
+        let listed = ((start + rest[4][0]) + rest[0][0]) + rest[2][0];
+        let by_row = ((start + rest[0][0]) + rest[2][0]) + rest[4][0];
+        assert_ne!(listed.to_bits(), by_row.to_bits());
+    }
 }
