@@ -201,10 +201,36 @@ impl Schedule {
     /// Takes the ready task thread `me` of `threads` should run next (the
     /// module's order), if any.
     pub(crate) fn take(&mut self, me: usize, threads: usize) -> Option<Task> {
-        let home = |t: &Task| self.seam(*t).unwrap_or(t.node) * threads / self.groups;
+        let home = |t: &Task| home(self.seam(*t).unwrap_or(t.node), self.groups, threads);
         let key = |t: &Task| (t.pass, self.seam(*t).is_none(), home(t) != me, t.node);
         let (at, _) = self.ready.iter().enumerate().min_by_key(|(_, t)| key(t))?;
         Some(self.ready.swap_remove(at))
+    }
+}
+
+/// The worker whose own groups include group `k` of `groups` on `threads`
+/// workers: the first `groups / threads` are worker 0's, and so on
+/// ([`Schedule::take`] takes a worker's own groups first).
+fn home(k: usize, groups: usize, threads: usize) -> usize {
+    k * threads / groups
+}
+
+/// The group a worker most likely takes after group `k` of `groups` (on
+/// `threads` workers): the next of its own groups, or after its last its
+/// first (the next pass's). Ready tasks are taken lowest pass first, then
+/// the worker's own groups in order, so a worker that relaxed block k of a
+/// pass goes on with block k + 1 of its share when the seams allow, and
+/// with its first block in the next pass. A layout prefetches that group's
+/// rows while it relaxes group `k` ([`crate::sim::fast::generic`]'s
+/// `Ahead`); a wrong guess costs the prefetches, not a bit.
+pub(crate) fn next_at_home(k: usize, groups: usize, threads: usize) -> usize {
+    // At most one worker a group (as `run` is called).
+    let threads = threads.clamp(1, groups.max(1));
+    let me = home(k, groups, threads);
+    match k + 1 {
+        next if next < groups && home(next, groups, threads) == me => next,
+        // The least j with j · threads / groups = me.
+        _ => (me * groups).div_ceil(threads),
     }
 }
 
@@ -308,6 +334,26 @@ mod tests {
             }
         }
         pairs
+    }
+
+    #[test]
+    fn a_worker_goes_on_with_its_next_group_then_its_first() {
+        // 8 groups on 2 workers: worker 0 owns 0–3 (k · 2 / 8 = 0), worker
+        // 1 owns 4–7. After its last group a worker comes back to its first.
+        let next = |k, threads| next_at_home(k, 8, threads);
+        assert_eq!((0..8).map(|k| next(k, 2)).collect::<Vec<_>>(), [1, 2, 3, 0, 5, 6, 7, 4]);
+        // One worker owns all eight: 7 is followed by 0.
+        assert_eq!((0..8).map(|k| next(k, 1)).collect::<Vec<_>>(), [1, 2, 3, 4, 5, 6, 7, 0]);
+        // Three workers: homes k · 3 / 8 = 0 0 0 1 1 1 2 2.
+        assert_eq!((0..8).map(|k| next(k, 3)).collect::<Vec<_>>(), [1, 2, 0, 4, 5, 3, 7, 6]);
+        // As many workers as groups: each owns one and comes back to it.
+        assert_eq!((0..4).map(|k| next_at_home(k, 4, 4)).collect::<Vec<_>>(), [0, 1, 2, 3]);
+        // Each answer is a group of the same worker, as `take` counts them.
+        for threads in 1..=8 {
+            for k in 0..8 {
+                assert_eq!(home(next(k, threads), 8, threads), home(k, 8, threads), "group {k}, {threads} workers");
+            }
+        }
     }
 
     #[test]

@@ -44,6 +44,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::Particle;
+use super::ahead::Ahead;
 use super::colouring::Colouring;
 use super::sweep::{Sweep, relax_pass};
 use crate::sim::fast::THREAD_SHARES;
@@ -77,9 +78,9 @@ impl Group {
     }
 
     /// One pass over `particles`, the ones the group's ends index (from its
-    /// first).
-    fn relax(&mut self, particles: &mut [Particle], sweep: &Sweep) -> f32 {
-        relax_pass(particles, &self.colouring, &mut self.multipliers, sweep, true)
+    /// first), prefetching `ahead` as it goes ([`super::ahead`]).
+    fn relax(&mut self, particles: &mut [Particle], sweep: &Sweep, ahead: &mut Ahead) -> f32 {
+        relax_pass(particles, &self.colouring, &mut self.multipliers, sweep, true, ahead)
     }
 }
 
@@ -102,14 +103,22 @@ pub(super) struct BlockedBars {
 /// One pass of each group over the particles it indexes ([`Group::run`]:
 /// increasing and disjoint within a round), on the thread pool when
 /// `parallel`, as the runs share no particle. Returns the largest excess (max
-/// is order-free: the same on any thread count).
-fn relax_runs(particles: &mut [Particle], groups: &mut [Group], parallel: bool, sweep: &Sweep) -> f32 {
+/// is order-free: the same on any thread count). On one thread with
+/// `prefetch` (the blocks' round), each group prefetches the rows of the
+/// group after it, the last those of the first (the next pass's).
+fn relax_runs(particles: &mut [Particle], groups: &mut [Group], parallel: bool, sweep: &Sweep, prefetch: bool) -> f32 {
     if !(parallel && groups.len() > 1) {
-        let relax = |group: &mut Group| {
-            let run = group.run();
-            group.relax(&mut particles[run], sweep)
-        };
-        return groups.iter_mut().map(relax).fold(f32::NEG_INFINITY, f32::max);
+        let runs: Vec<Range<usize>> = groups.iter().map(Group::run).collect();
+        let (at, len) = (particles.as_ptr(), particles.len());
+        let mut worst = f32::NEG_INFINITY;
+        for (k, group) in groups.iter_mut().enumerate() {
+            let mut ahead = match prefetch && runs.len() > 1 {
+                true => Ahead::rows(at, len, runs[graph::next_at_home(k, runs.len(), 1)].clone()),
+                false => Ahead::none(),
+            };
+            worst = worst.max(group.relax(&mut particles[runs[k].clone()], sweep, &mut ahead));
+        }
+        return worst;
     }
     let mut runs = Vec::with_capacity(groups.len());
     let (mut rest, mut at) = (particles, 0);
@@ -123,7 +132,8 @@ fn relax_runs(particles: &mut [Particle], groups: &mut [Group], parallel: bool, 
     // `par_iter_mut`, not `into_par_iter`: the latter (same eight runs)
     // made disc-183's step on two threads 11.3–12.7 ms against 8.3–8.6 ms
     // (host D, three alternated pairs); not investigated further.
-    runs.par_iter_mut().map(|(p, group)| group.relax(p, sweep)).reduce(|| f32::NEG_INFINITY, f32::max)
+    let relax = |(p, group): &mut (&mut [Particle], &mut Group)| group.relax(p, sweep, &mut Ahead::none());
+    runs.par_iter_mut().map(relax).reduce(|| f32::NEG_INFINITY, f32::max)
 }
 
 /// The block of particle `i` (`starts` as [`BlockedBars::starts`]).
@@ -285,10 +295,13 @@ impl BlockedBars {
     pub(super) fn relax_pass(&mut self, particles: &mut [Particle], sweep: &Sweep) -> f32 {
         let parallel = rayon::current_num_threads() > 1;
         let [even, odd] = &mut self.seams;
-        let inside = relax_runs(particles, &mut self.blocks, parallel, sweep);
-        let even = relax_runs(particles, even, parallel, sweep);
-        let odd = relax_runs(particles, odd, parallel, sweep);
-        let far = if self.far.multipliers.is_empty() { f32::NEG_INFINITY } else { self.far.relax(particles, sweep) };
+        let inside = relax_runs(particles, &mut self.blocks, parallel, sweep, true);
+        let even = relax_runs(particles, even, parallel, sweep, false);
+        let odd = relax_runs(particles, odd, parallel, sweep, false);
+        let far = match self.far.multipliers.is_empty() {
+            true => f32::NEG_INFINITY,
+            false => self.far.relax(particles, sweep, &mut Ahead::none()),
+        };
         inside.max(even).max(odd).max(far)
     }
 }
@@ -325,12 +338,20 @@ impl BlockedBars {
             }
             return false;
         }
+        // Each block's particles, for the prefetch of the block its worker
+        // likely takes next (taken now: during the passes that block may be
+        // another worker's).
+        let runs: Vec<Range<usize>> = self.blocks.iter().map(Group::run).collect();
         let [even, odd] = &mut self.seams;
         let pointers = |groups: &mut Vec<Group>| groups.iter_mut().map(|g| g as *mut Group).collect::<Vec<_>>();
         let (even, odd) = (pointers(even), pointers(odd));
         let mut groups = pointers(&mut self.blocks);
         groups.extend((0..blocks - 1).map(|s| [&even, &odd][s % 2][s / 2]));
         let nodes = &Nodes { groups, particles: particles.as_mut_ptr(), len: particles.len() };
+        // At most one worker a block: tasks that may run at once touch
+        // different blocks (the graph orders any two that share one), and
+        // a worker with nothing to take spins.
+        let workers = threads.min(blocks);
         let relax = |t: Task| {
             // SAFETY: the pointers come from `&mut` borrows held for this
             // call; no other task that shares this group or a particle of
@@ -341,12 +362,17 @@ impl BlockedBars {
             let run = group.run();
             assert!(run.end <= nodes.len, "a group's particles {run:?} past the layout's {}", nodes.len);
             let particles = unsafe { std::slice::from_raw_parts_mut(nodes.particles.add(run.start), run.len()) };
-            group.relax(particles, sweep);
+            // A block prefetches the block its worker likely takes next
+            // (addresses only: that block may be another worker's now).
+            let mut ahead = match t.node < blocks {
+                true => {
+                    Ahead::rows(nodes.particles, nodes.len, runs[graph::next_at_home(t.node, blocks, workers)].clone())
+                }
+                false => Ahead::none(),
+            };
+            group.relax(particles, sweep, &mut ahead);
         };
-        // At most one worker a block: tasks that may run at once touch
-        // different blocks (the graph orders any two that share one), and
-        // a worker with nothing to take spins.
-        graph::run(Schedule::new(Chain::BlocksAndSeams, blocks, passes), threads.min(blocks), &relax);
+        graph::run(Schedule::new(Chain::BlocksAndSeams, blocks, passes), workers, &relax);
         true
     }
 }
@@ -355,6 +381,7 @@ impl BlockedBars {
 mod tests {
     use super::*;
     use crate::sim::BarKind;
+    use crate::sim::fast::simd::{self, SimdLevel};
 
     #[test]
     fn blocks_share_the_bars_a_pass_projects_not_the_particles() {
@@ -468,7 +495,7 @@ mod tests {
         let groups = alone.blocks.iter_mut().chain(even.iter_mut()).chain(odd.iter_mut()).chain([&mut alone.far]);
         for group in groups {
             let (first, last) = (group.first, group.first + group.colouring.particles);
-            group.relax(&mut x_alone[first..last], &sweep);
+            group.relax(&mut x_alone[first..last], &sweep, &mut Ahead::none());
         }
         assert_eq!(bits(&rounds, &x_rounds), bits(&alone, &x_alone));
         // Every group moved something: its multipliers are not all zero.
@@ -476,6 +503,30 @@ mod tests {
         for group in rounds.blocks.iter().chain(even).chain(odd).chain([&rounds.far]) {
             assert!(group.multipliers.iter().any(|&m| m != 0.0), "a group starting at {} did not move", group.first);
         }
+    }
+
+    #[test]
+    fn a_block_prefetches_the_next_blocks_rows_as_it_goes() {
+        // The sheet without far bars: four blocks of about 130² / 4 = 4 225
+        // particles, so block 1's rows are about 4 225 / 4 = 1 057 lines of
+        // four, and block 0 holds about 4 bars a particle (≈ 2 100
+        // octets). A pass over block 0 takes one line an octet, so with the
+        // octets (AVX2 and above) it prefetches every line of block 1; the
+        // portable level does not prefetch, and the cursor stays put.
+        let (bars, mut particles, count) = stretched_sheet(false);
+        let mut blocked = BlockedBars::new(&bars, count, &vec![false; count]);
+        let sweep = Sweep { betas: [0.0; 3], omega: 1.0, tolerance: 0.0 };
+        let (run, next) = (blocked.blocks[0].run(), blocked.blocks[1].run());
+        let mut ahead = Ahead::rows(particles.as_ptr(), particles.len(), next.clone());
+        // Blocks start on an even index (32 bytes), so the lines are ⌈rows / 4⌉.
+        let lines = ahead.lines_left();
+        assert!(lines.abs_diff(next.len() / 4) <= 1, "{lines} lines for {} rows", next.len());
+        let colouring = &blocked.blocks[0].colouring;
+        let octets: usize = (0..colouring.independent).flat_map(|c| colouring.live(c).0).map(|r| r.len() / 8).sum();
+        assert!(octets > lines, "{octets} octets, {lines} lines");
+        blocked.blocks[0].relax(&mut particles[run], &sweep, &mut ahead);
+        let octets_run = cfg!(target_arch = "x86_64") && simd::level() >= SimdLevel::Avx2;
+        assert_eq!(ahead.lines_left(), if octets_run { 0 } else { lines });
     }
 
     #[test]

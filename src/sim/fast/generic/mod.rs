@@ -16,6 +16,7 @@
 //! sweep loads and stores as one 32-byte access where it took two and a
 //! shuffle.
 
+mod ahead;
 mod blocks;
 mod collide;
 mod colouring;

@@ -58,6 +58,8 @@
 #[cfg(target_arch = "x86_64")]
 use super::Particle;
 #[cfg(target_arch = "x86_64")]
+use super::ahead::Ahead;
+#[cfg(target_arch = "x86_64")]
 use super::colouring::{BarColumns, Colouring};
 #[cfg(target_arch = "x86_64")]
 use super::sweep::{Sweep, relax_one};
@@ -97,7 +99,7 @@ macro_rules! octets {
                 _mm256_unpackhi_ps,
             };
 
-            use super::{BarColumns, Colouring, Particle, Sweep, relax_one};
+            use super::{Ahead, BarColumns, Colouring, Particle, Sweep, relax_one};
             use crate::sim::fast::avx::{Avx, transpose_pairs};
             use crate::sim::fast::kernel::{LANES, Real, excess, length_squared, pair_shares};
 
@@ -117,15 +119,18 @@ macro_rules! octets {
                 colouring: &Colouring,
                 mu: &mut [f32],
                 sweep: &Sweep,
+                ahead: &mut Ahead,
             ) -> f32 {
                 let columns = Columns::new(&colouring.bars, mu);
                 // SAFETY: the caller's promise, passed on.
                 unsafe {
                     match (sweep.betas.iter().any(|&b| b > 0.0), sweep.tolerance > 0.0) {
-                        (true, true) => relax_colours::<true, true>(particles, colouring, columns, mu, sweep),
-                        (true, false) => relax_colours::<true, false>(particles, colouring, columns, mu, sweep),
-                        (false, true) => relax_colours::<false, true>(particles, colouring, columns, mu, sweep),
-                        (false, false) => relax_colours::<false, false>(particles, colouring, columns, mu, sweep),
+                        (true, true) => relax_colours::<true, true>(particles, colouring, columns, mu, sweep, ahead),
+                        (true, false) => relax_colours::<true, false>(particles, colouring, columns, mu, sweep, ahead),
+                        (false, true) => relax_colours::<false, true>(particles, colouring, columns, mu, sweep, ahead),
+                        (false, false) => {
+                            relax_colours::<false, false>(particles, colouring, columns, mu, sweep, ahead)
+                        }
                     }
                 }
             }
@@ -173,6 +178,7 @@ macro_rules! octets {
                 columns: Columns,
                 mu: &mut [f32],
                 sweep: &Sweep,
+                ahead: &mut Ahead,
             ) -> f32 {
                 let bars = &colouring.bars;
                 let mut worst = f32::NEG_INFINITY;
@@ -191,9 +197,11 @@ macro_rules! octets {
                         // is), and the colouring lays out the octets paired at both
                         // ends and at end a as `octets_of` requires.
                         unsafe {
-                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, cols, both, sweep));
-                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, cols, a_end, sweep));
-                            worst = worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, cols, others, sweep));
+                            worst = worst.max(octets_of::<XPBD, TOLERANCE, true, true>(rows, cols, both, sweep, ahead));
+                            worst =
+                                worst.max(octets_of::<XPBD, TOLERANCE, true, false>(rows, cols, a_end, sweep, ahead));
+                            worst =
+                                worst.max(octets_of::<XPBD, TOLERANCE, false, false>(rows, cols, others, sweep, ahead));
                         }
                         next = rest;
                     }
@@ -205,7 +213,8 @@ macro_rules! octets {
             }
 
             /// The octets `range` (of one colour, a multiple of eight bars),
-            /// pipelined. With `PA` (`PB`), each octet's lane l + 4 has as end a
+            /// pipelined, each prefetching a line of `ahead` (the next block's
+            /// rows, [`super::super::ahead`]). With `PA` (`PB`), each octet's lane l + 4 has as end a
             /// (b) the row after lane l's, and each pair of rows is loaded and
             /// stored as one 32 bytes.
             ///
@@ -217,6 +226,7 @@ macro_rules! octets {
                 columns: Columns,
                 range: std::ops::Range<usize>,
                 sweep: &Sweep,
+                ahead: &mut Ahead,
             ) -> f32 {
                 let mut worst = f32::NEG_INFINITY;
                 if range.is_empty() {
@@ -225,6 +235,7 @@ macro_rules! octets {
                 if !PIPELINED {
                     let mut first = range.start;
                     while first < range.end {
+                        ahead.line();
                         // SAFETY (`start` and `finish`): the caller's promise.
                         let started = unsafe { start::<PA, PB>(rows, columns, first) };
                         worst = worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, started, sweep) });
@@ -242,6 +253,7 @@ macro_rules! octets {
                 let mut pending = unsafe { start::<PA, PB>(rows, columns, range.start) };
                 let mut next = range.start + LANES;
                 while next < range.end {
+                    ahead.line();
                     let started = unsafe { start::<PA, PB>(rows, columns, next) };
                     worst = worst.max(unsafe { finish::<XPBD, TOLERANCE, PA, PB>(rows, columns, pending, sweep) });
                     pending = started;

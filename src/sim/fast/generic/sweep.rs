@@ -63,6 +63,7 @@
 //! a shuffle to join or part them.
 
 use super::Particle;
+use super::ahead::Ahead;
 use super::colouring::{BarColumns, Colouring, ROW};
 use crate::sim::fast::kernel::{LANES, Real, each_lane, excess, relax_pair};
 use crate::sim::fast::rows::Rows;
@@ -78,8 +79,9 @@ pub(super) struct Sweep {
 
 /// One pass over every bar; returns `max(|len − rest| − tolerance·rest)`
 /// over the bars that can move (−∞ when no tolerance is set). With `lanes`
-/// and a CPU with AVX2 ([`simd::level`]), eight bars of a colour at a time;
-/// otherwise one at a time (the same bits).
+/// and a CPU with AVX2 ([`simd::level`]), eight bars of a colour at a time,
+/// prefetching a line of `ahead` an octet ([`super::ahead`]); otherwise
+/// one at a time (the same bits).
 #[allow(unsafe_code)]
 pub(super) fn relax_pass(
     particles: &mut [Particle],
@@ -87,6 +89,7 @@ pub(super) fn relax_pass(
     mu: &mut [f32],
     sweep: &Sweep,
     lanes: bool,
+    ahead: &mut Ahead,
 ) -> f32 {
     assert!(particles.len() >= colouring.particles, "the colouring's ends index {} particles", colouring.particles);
     #[cfg(target_arch = "x86_64")]
@@ -98,9 +101,9 @@ pub(super) fn relax_pass(
         // many as the colouring's ends index (checked above).
         return unsafe {
             if simd::level() == SimdLevel::Avx512 {
-                super::octets::avx512::relax_pass(particles, colouring, mu, sweep)
+                super::octets::avx512::relax_pass(particles, colouring, mu, sweep, ahead)
             } else {
-                super::octets::avx2::relax_pass(particles, colouring, mu, sweep)
+                super::octets::avx2::relax_pass(particles, colouring, mu, sweep, ahead)
             }
         };
     }
@@ -312,7 +315,7 @@ mod tests {
             eprintln!("no AVX2 here (or DRAPE_SIMD): the AVX lanes are not used (the portable ones are tested below)");
             return;
         }
-        lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass(p, c, mu, sweep, true));
+        lanes_match_one_at_a_time(|p, c, mu, sweep| relax_pass(p, c, mu, sweep, true, &mut Ahead::none()));
     }
 
     #[test]
@@ -395,8 +398,20 @@ mod tests {
                 // colouring indexes (one block holds them all).
                 let (w2, w5) = unsafe {
                     (
-                        avx2::relax_pass(&mut narrow.particles, &g2.colouring, &mut g2.multipliers, &sweep),
-                        avx512::relax_pass(&mut wide.particles, &g5.colouring, &mut g5.multipliers, &sweep),
+                        avx2::relax_pass(
+                            &mut narrow.particles,
+                            &g2.colouring,
+                            &mut g2.multipliers,
+                            &sweep,
+                            &mut Ahead::none(),
+                        ),
+                        avx512::relax_pass(
+                            &mut wide.particles,
+                            &g5.colouring,
+                            &mut g5.multipliers,
+                            &sweep,
+                            &mut Ahead::none(),
+                        ),
                     )
                 };
                 assert_eq!(w2.to_bits(), w5.to_bits(), "worst excess, pass {pass}, β {betas:?}");
@@ -417,7 +432,14 @@ mod tests {
         let mut layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
         let sweep = Sweep { betas: [0.0; 3], omega: 1.0, tolerance: 0.0 };
         let group = &mut layout.bars.blocks[0];
-        relax_pass(&mut layout.particles[..1599], &group.colouring, &mut group.multipliers, &sweep, true);
+        relax_pass(
+            &mut layout.particles[..1599],
+            &group.colouring,
+            &mut group.multipliers,
+            &sweep,
+            true,
+            &mut Ahead::none(),
+        );
     }
 
     #[test]
