@@ -10,6 +10,33 @@
 
 use super::kernel::{F32x8, LANES, Real, per_lane};
 
+/// Asks the CPU to bring the cache line holding `at` into its caches:
+/// every level with `INTO_L1`, else L2 and beyond (`prefetcht0` /
+/// `prefetcht1` on x86-64; elsewhere nothing). It reads nothing into the
+/// program and cannot fault, whatever the address, so `at` need not point
+/// into anything: a hint that changes no value. Used where a loop knows
+/// which rows it will read later and the hardware's prefetcher cannot (rows
+/// read through an index): the coloured layout's next block
+/// (`fast/generic/ahead.rs`), the self-collide pairs' far ends
+/// (`self_contact/pair.rs`).
+#[inline(always)]
+#[allow(unsafe_code)]
+pub(crate) fn prefetch<const INTO_L1: bool>(at: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE is part of x86-64's baseline, and a prefetch is a hint
+    // that reads nothing into the program and cannot fault.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _MM_HINT_T1, _mm_prefetch};
+        if INTO_L1 {
+            _mm_prefetch::<_MM_HINT_T0>(at.cast());
+        } else {
+            _mm_prefetch::<_MM_HINT_T1>(at.cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = at;
+}
+
 /// Lanes that rows of a table can be gathered into.
 pub(crate) trait Rows: Real {
     /// Rows `s[0..8]` as four lanes, [x, y, z, w].
@@ -67,6 +94,23 @@ impl Rows for F32x8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_prefetch_of_any_address_reads_nothing_and_cannot_fault() {
+        // The callers prefetch rows past a slice's end or of a block another
+        // thread holds (addresses only). A load there would fault or race;
+        // a prefetch must not: null, the last byte of the address space and
+        // a freed row, at both levels. A row prefetched reads back as it was.
+        let row = Box::new([1.5f32, -2.0, 0.25, 1.0]);
+        let gone = (&raw const *row).cast::<u8>();
+        prefetch::<true>(gone);
+        assert_eq!(*row, [1.5, -2.0, 0.25, 1.0]);
+        drop(row);
+        for at in [std::ptr::null(), usize::MAX as *const u8, gone] {
+            prefetch::<true>(at);
+            prefetch::<false>(at);
+        }
+    }
 
     /// Every method of [`Rows`] on `T`, against the lanes one by one: the
     /// gather and its inverse on rows of distinct values, and the equal

@@ -41,6 +41,7 @@
 use std::ops::Range;
 
 use super::Particle;
+use crate::sim::fast::rows::prefetch;
 
 /// Bytes a prefetch brings in (a cache line: four 16-byte rows).
 const LINE: usize = 64;
@@ -82,17 +83,9 @@ impl Ahead {
     /// Prefetches the next line into L2 (module docs), if any is left
     /// (x86-64; elsewhere the cursor only moves on).
     #[inline(always)]
-    #[allow(unsafe_code)]
     pub(super) fn line(&mut self) {
         if self.next < self.end {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: SSE is part of x86-64's baseline, and a prefetch
-            // reads nothing into the program: it is a hint that cannot
-            // fault, whatever the address.
-            unsafe {
-                use std::arch::x86_64::{_MM_HINT_T1, _mm_prefetch};
-                _mm_prefetch::<_MM_HINT_T1>(self.next.cast());
-            }
+            prefetch::<false>(self.next);
             self.next = self.next.wrapping_add(LINE);
         }
     }
