@@ -27,8 +27,8 @@
 //!
 //! disc-183's step, with and without the prefetch alternated window by
 //! window in one process (medians of 20 windows of 150 ms), with / without:
-//! one thread 0.946, 0.947, 0.954 (AVX2) and 0.934 (AVX-512); two threads
-//! 0.950, 0.955, 0.967 (AVX2) and 0.940 (AVX-512). The draped disc with
+//! one thread 0.946–0.966 (AVX2, six runs) and 0.931, 0.934 (AVX-512); two
+//! threads 0.950–0.986 (AVX2, four runs) and 0.940, 0.954 (AVX-512). The draped disc with
 //! self-collision (two threads, AVX2) 0.964, with contact 0.988. A mesh of
 //! one block (the tablecloth) prefetches nothing: 1.002. The portable
 //! level's octets do not prefetch.
