@@ -201,8 +201,8 @@ impl Schedule {
     /// Takes the ready task thread `me` of `threads` should run next (the
     /// module's order), if any.
     pub(crate) fn take(&mut self, me: usize, threads: usize) -> Option<Task> {
-        let home = |t: &Task| home(self.seam(*t).unwrap_or(t.node), self.groups, threads);
-        let key = |t: &Task| (t.pass, self.seam(*t).is_none(), home(t) != me, t.node);
+        let home_of = |t: &Task| home(self.seam(*t).unwrap_or(t.node), self.groups, threads);
+        let key = |t: &Task| (t.pass, self.seam(*t).is_none(), home_of(t) != me, t.node);
         let (at, _) = self.ready.iter().enumerate().min_by_key(|(_, t)| key(t))?;
         Some(self.ready.swap_remove(at))
     }
