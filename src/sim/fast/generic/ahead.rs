@@ -44,12 +44,14 @@ use super::Particle;
 use crate::sim::fast::rows::prefetch;
 
 /// Bytes a prefetch brings in (a cache line: four 16-byte rows).
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 const LINE: usize = 64;
 
 /// A cursor over rows to prefetch, one line a call of [`Ahead::line`]. It
 /// holds the rows' addresses only (it never reads or writes through them),
 /// so it borrows nothing and may point past what a group's pass holds.
 #[derive(Debug)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(super) struct Ahead {
     /// The next line's address.
     next: *const u8,
@@ -80,9 +82,10 @@ impl Ahead {
         (self.end as usize).saturating_sub(self.next as usize).div_ceil(LINE)
     }
 
-    /// Prefetches the next line into L2 (module docs), if any is left
-    /// (x86-64; elsewhere the cursor only moves on).
+    /// Prefetches the next line into L2 (module docs), if any is left.
+    /// Only the AVX2 octets call it (x86-64).
     #[inline(always)]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(super) fn line(&mut self) {
         if self.next < self.end {
             prefetch::<false>(self.next);

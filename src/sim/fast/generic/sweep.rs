@@ -83,6 +83,7 @@ pub(super) struct Sweep {
 /// prefetching a line of `ahead` an octet ([`super::ahead`]); otherwise
 /// one at a time (the same bits).
 #[allow(unsafe_code)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
 pub(super) fn relax_pass(
     particles: &mut [Particle],
     colouring: &Colouring,
