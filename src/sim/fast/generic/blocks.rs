@@ -108,15 +108,15 @@ pub(super) struct BlockedBars {
 /// group after it, the last those of the first (the next pass's).
 fn relax_runs(particles: &mut [Particle], groups: &mut [Group], parallel: bool, sweep: &Sweep, prefetch: bool) -> f32 {
     if !(parallel && groups.len() > 1) {
-        let runs: Vec<Range<usize>> = groups.iter().map(Group::run).collect();
-        let (at, len) = (particles.as_ptr(), particles.len());
+        let (at, len, count) = (particles.as_ptr(), particles.len(), groups.len());
         let mut worst = f32::NEG_INFINITY;
-        for (k, group) in groups.iter_mut().enumerate() {
-            let mut ahead = match prefetch && runs.len() > 1 {
-                true => Ahead::rows(at, len, runs[graph::next_at_home(k, runs.len(), 1)].clone()),
+        for k in 0..count {
+            let mut ahead = match prefetch && count > 1 {
+                true => Ahead::rows(at, len, groups[graph::next_at_home(k, count, 1)].run()),
                 false => Ahead::none(),
             };
-            worst = worst.max(group.relax(&mut particles[runs[k].clone()], sweep, &mut ahead));
+            let run = groups[k].run();
+            worst = worst.max(groups[k].relax(&mut particles[run], sweep, &mut ahead));
         }
         return worst;
     }
