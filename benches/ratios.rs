@@ -27,7 +27,14 @@
 //! range) against the target; on one thread, ns a bar projection,
 //! counted over every bar and over the bars projected (those with an end
 //! that is not fixed: a bar between two fixed ends is skipped by the fast
-//! solver's coloured path). FILTER keeps the comparisons whose name
+//! solver's coloured path). Beside the medians, the ratio of each run's
+//! quickest window to its base's quickest, and ns a projection in the
+//! quickest window: a shared host's load only adds time, and on some hosts
+//! it comes and goes in spells that slow the fast kernels far more than the
+//! reference (on host F, an Emerald Rapids Xeon, the seed's fast step
+//! switches between about 69 and 123 µs within one process while the
+//! reference's moves by 15 %), so the quickest windows say what the code
+//! does on a quiet machine. Targets are judged on the medians. FILTER keeps the comparisons whose name
 //! contains it (`seed`, `256`, `tablecloth`, `disc-183`, `contact`,
 //! `self-collision`, `air`).
 
@@ -337,9 +344,9 @@ fn range(values: &[f64]) -> (f64, f64) {
 fn report(name: &str, comparison: &Comparison) {
     println!("\n## {name}\n");
     println!(
-        "| run | ms a step, median (range) | ratio, median (range) | target | ns a projection, every bar / projected |"
+        "| run | ms a step, median (range) | ratio, median (range) | target | quickest windows' ratio | ns a projection, every bar / projected: median (quickest window) |"
     );
-    println!("|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|");
     for (index, run) in comparison.runs.iter().enumerate() {
         let base = &comparison.runs[run.base];
         let ms: Vec<f64> = run.per_step.iter().map(|t| t * 1e3).collect();
@@ -354,16 +361,13 @@ fn report(name: &str, comparison: &Comparison) {
             }
         };
         let target = (comparison.target)(run);
+        let cost = matches!(target, Some(Target::AtMost(_)));
         // Within each round: base over run for a speed-up, run over base
         // for a cost.
-        let ratios: Vec<f64> = run
-            .per_step
-            .iter()
-            .zip(&base.per_step)
-            .map(|(t, b)| if matches!(target, Some(Target::AtMost(_))) { t / b } else { b / t })
-            .collect();
-        let (ratio, verdict) = if run.base == index || ratios.is_empty() {
-            ("base".to_string(), String::new())
+        let ratios: Vec<f64> =
+            run.per_step.iter().zip(&base.per_step).map(|(t, b)| if cost { t / b } else { b / t }).collect();
+        let (ratio, verdict, quickest) = if run.base == index || ratios.is_empty() {
+            ("base".to_string(), String::new(), String::new())
         } else {
             let (rlo, rhi) = range(&ratios);
             let r = median(&ratios);
@@ -377,17 +381,22 @@ fn report(name: &str, comparison: &Comparison) {
             };
             // A phase's cost to three decimals, so that a median just over
             // its target does not print as the target itself.
-            let digits = if matches!(target, Some(Target::AtMost(_))) { 3 } else { 2 };
-            (format!("{r:.digits$}× ({rlo:.digits$}–{rhi:.digits$})"), verdict)
+            let digits = if cost { 3 } else { 2 };
+            // Each run's quickest window against its base's: what the code
+            // does when the host leaves it alone (load only adds time), for
+            // reading a noisy host's medians; the verdict stays the median's.
+            let (run_best, base_best) = (range(&run.per_step).0, range(&base.per_step).0);
+            let best = if cost { run_best / base_best } else { base_best / run_best };
+            (format!("{r:.digits$}× ({rlo:.digits$}–{rhi:.digits$})"), verdict, format!("{best:.digits$}×"))
         };
         let ns = if run.threads == Threads::One && run.level.is_some() {
-            let t = median(&run.per_step) * 1e9;
-            let every = run.sim.projections_per_step() as f64;
-            format!("{:.2} / {:.2}", t / every, t / projected(&run.sim) as f64)
+            let (t, best) = (median(&run.per_step) * 1e9, range(&run.per_step).0 * 1e9);
+            let (every, moving) = (run.sim.projections_per_step() as f64, projected(&run.sim) as f64);
+            format!("{:.2} / {:.2} ({:.2} / {:.2})", t / every, t / moving, best / every, best / moving)
         } else {
             String::new()
         };
-        println!("| {name} | {:.3} ({lo:.3}–{hi:.3}) | {ratio} | {verdict} | {ns} |", median(&ms));
+        println!("| {name} | {:.3} ({lo:.3}–{hi:.3}) | {ratio} | {verdict} | {quickest} | {ns} |", median(&ms));
     }
 }
 

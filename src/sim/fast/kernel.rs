@@ -380,7 +380,10 @@ pub(crate) fn pair_shares<T: Real, const XPBD: bool, const FUSED: bool>(
     beta: T,
     omega: T,
 ) -> (T, T, T) {
-    let weight = wa + wb + beta;
+    // W = w_a + w_b (+ β with compliance). Without it β is 0, and adding
+    // +0 would only turn a −0 sum into +0, which the select below treats
+    // alike: the same bits, one addition fewer an octet.
+    let weight = if XPBD { wa + wb + beta } else { wa + wb };
     // Both ends weigh 0 (fixed, padding): divide by 1 and move nothing.
     let weight = T::if_moving(weight, weight, T::splat(1.0));
     // ω / (ℓ² W): independent of the square root, computed beside it. The
