@@ -27,9 +27,9 @@
 //! range) against the target; on one thread, ns a bar projection,
 //! counted over every bar and over the bars projected (those with an end
 //! that is not fixed: a bar between two fixed ends is skipped by the fast
-//! solver's coloured path). Beside the medians, the ratio of each run's
-//! quickest window to its base's quickest, and ns a projection in the
-//! quickest window: a shared host's load only adds time, and on some hosts
+//! solver's coloured path). Beside the medians, for each speed-up over the
+//! reference, the ratio of the reference's quickest window to the run's
+//! quickest, and ns a projection in the quickest window: a shared host's load only adds time, and on some hosts
 //! it comes and goes in spells that slow the fast kernels far more than the
 //! reference (on host F, an Emerald Rapids Xeon, the seed's fast step
 //! switches between about 69 and 123 µs within one process while the
@@ -385,9 +385,12 @@ fn report(name: &str, comparison: &Comparison) {
             // Each run's quickest window against its base's: what the code
             // does when the host leaves it alone (load only adds time), for
             // reading a noisy host's medians; the verdict stays the median's.
+            // Speed-ups only: a phase's two runs both step the fast kernels,
+            // which the host's spells slow alike, and the ratio of two
+            // single windows is noisier than the median of the rounds'.
             let (run_best, base_best) = (range(&run.per_step).0, range(&base.per_step).0);
-            let best = if cost { run_best / base_best } else { base_best / run_best };
-            (format!("{r:.digits$}× ({rlo:.digits$}–{rhi:.digits$})"), verdict, format!("{best:.digits$}×"))
+            let best = if cost { String::new() } else { format!("{:.2}×", base_best / run_best) };
+            (format!("{r:.digits$}× ({rlo:.digits$}–{rhi:.digits$})"), verdict, best)
         };
         let ns = if run.threads == Threads::One && run.level.is_some() {
             let (t, best) = (median(&run.per_step) * 1e9, range(&run.per_step).0 * 1e9);
