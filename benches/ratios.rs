@@ -27,16 +27,19 @@
 //! range) against the target; on one thread, ns a bar projection,
 //! counted over every bar and over the bars projected (those with an end
 //! that is not fixed: a bar between two fixed ends is skipped by the fast
-//! solver's coloured path). Beside the medians, for each speed-up over the
-//! reference, the ratio of the reference's quickest window to the run's
-//! quickest, and ns a projection in the quickest window: a shared host's load only adds time, and on some hosts
-//! it comes and goes in spells that slow the fast kernels far more than the
-//! reference (on host F, an Emerald Rapids Xeon, the seed's fast step
-//! switches between about 69 and 123 µs within one process while the
+//! solver's coloured path).
+//!
+//! Beside the medians, for each speed-up over the reference: the ratio of
+//! the reference's quickest window to the run's quickest, and ns a
+//! projection in the run's quickest window. A shared host's load only adds
+//! time, and on some hosts it comes in spells that slow the fast kernels
+//! far more than the reference (on host F, an Emerald Rapids Xeon, the
+//! seed's fast step reads 67–72 or 117–126 µs within one process while the
 //! reference's moves by 15 %), so the quickest windows say what the code
-//! does on a quiet machine. Targets are judged on the medians. FILTER keeps the comparisons whose name
-//! contains it (`seed`, `256`, `tablecloth`, `disc-183`, `contact`,
-//! `self-collision`, `air`).
+//! does on a quiet machine. Targets are judged on the medians.
+//!
+//! FILTER keeps the comparisons whose name contains it (`seed`, `256`,
+//! `tablecloth`, `disc-183`, `contact`, `self-collision`, `air`).
 
 mod scenes;
 
