@@ -340,6 +340,11 @@ fn median(values: &[f64]) -> f64 {
     if sorted.len().is_multiple_of(2) { 0.5 * (sorted[m - 1] + sorted[m]) } else { sorted[m] }
 }
 
+/// A run's quickest window: seconds a step.
+fn quickest_window(run: &Run) -> f64 {
+    range(&run.per_step).0
+}
+
 fn range(values: &[f64]) -> (f64, f64) {
     values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
 }
@@ -391,12 +396,12 @@ fn report(name: &str, comparison: &Comparison) {
             // Speed-ups only: a phase's two runs both step the fast kernels,
             // which the host's spells slow alike, and the ratio of two
             // single windows is noisier than the median of the rounds'.
-            let (run_best, base_best) = (range(&run.per_step).0, range(&base.per_step).0);
-            let best = if cost { String::new() } else { format!("{:.2}×", base_best / run_best) };
+            let best =
+                if cost { String::new() } else { format!("{:.2}×", quickest_window(base) / quickest_window(run)) };
             (format!("{r:.digits$}× ({rlo:.digits$}–{rhi:.digits$})"), verdict, best)
         };
         let ns = if run.threads == Threads::One && run.level.is_some() {
-            let (t, best) = (median(&run.per_step) * 1e9, range(&run.per_step).0 * 1e9);
+            let (t, best) = (median(&run.per_step) * 1e9, quickest_window(run) * 1e9);
             let (every, moving) = (run.sim.projections_per_step() as f64, projected(&run.sim) as f64);
             format!("{:.2} / {:.2} ({:.2} / {:.2})", t / every, t / moving, best / every, best / moving)
         } else {

@@ -257,6 +257,11 @@ impl F32x8 {
     pub(crate) fn max_lane(self) -> f32 {
         self.0.into_iter().fold(f32::NEG_INFINITY, Real::max)
     }
+    /// The least lane, by the rule `if a < b { a } else { b }` (`Vec3::min`'s).
+    #[inline(always)]
+    pub(crate) fn min_lane(self) -> f32 {
+        self.0.into_iter().fold(f32::INFINITY, |a, b| if a < b { a } else { b })
+    }
 }
 
 /// A point: x, y, z.

@@ -321,12 +321,7 @@ fn tile_box(position: &[Slot], displacement: &[Slot], predicted: &[Slot], weight
             hi[k] = F32x8::if_moving(*w, F32x8::if_greater(high, hi[k], high, hi[k]), hi[k]);
         }
     }
-    let across = |v: F32x8, pick: fn(f32, f32) -> f32| v.0.into_iter().reduce(pick).unwrap_or(f32::NAN);
-    let (low, high) = (|a: f32, b: f32| if a < b { a } else { b }, |a: f32, b: f32| if a > b { a } else { b });
-    (
-        Vec3::new(across(lo[0], low), across(lo[1], low), across(lo[2], low)),
-        Vec3::new(across(hi[0], high), across(hi[1], high), across(hi[2], high)),
-    )
+    (Vec3::from_array(lo.map(F32x8::min_lane)), Vec3::from_array(hi.map(F32x8::max_lane)))
 }
 
 /// Applies `f` to every tile, on the thread pool when `parallel`, and returns
