@@ -17,14 +17,23 @@
 //! octets jumped about its block. On disc-183, whose blocks of 11 000–15 000
 //! rows (180–240 KB) do not fit a core's L1, an octet's sixteen ends had
 //! spanned 1 300–3 700 rows on average (290–730 sorted), and consecutive
-//! octets started 880–2 200 rows apart (100–230 sorted). Its step, the two
-//! orders built side by side and stepped window by window in one process
-//! (host F, an Intel Xeon, Emerald Rapids; medians of 16 windows), sorted
-//! against not: one thread 0.957–0.993 (AVX-512, five runs), 0.967 and
-//! 0.976 (AVX2); two threads 0.960, 0.987 (AVX-512), 0.965 and 0.971
-//! (AVX2). The tablecloth (1 801 rows, in L1 either way): 1.000–1.020, no
-//! change. The greedy colours do not depend on this order, and every
-//! kernel level and thread count still sweeps the same octets.
+//! octets started 880–2 200 rows apart (100–230 sorted). The order within
+//! a colour moves no bit (its bars share no particle).
+//!
+//! Measured on host F (an Intel Xeon, Emerald Rapids), the two orders
+//! built side by side and stepped window by window in one process, sorted
+//! against not (medians of 16–40 windows). Where a run is built matters
+//! on that host: two builds of the same order differed by up to 6 % (the
+//! 100-ring disc, the second build the quicker), so the comparisons were
+//! run with the builds both ways round:
+//!
+//! - disc-183 on one thread: 0.955–0.993 with the sorted order built
+//!   second (AVX-512, seven runs; AVX2 0.967, 0.976), 0.973–0.986 with it
+//!   built first (four runs); on two threads 0.960, 0.987 (AVX-512) and
+//!   0.965, 0.971 (AVX2);
+//! - ring discs of 40, 60 and 100 rings (5 000–30 000 particles): 0.986,
+//!   0.980 and 0.983, each the geometric mean of the two ways round;
+//! - the tablecloth (1 801 rows, in L1 either way): 1.000–1.020, no change.
 //!
 //! **Still octets.** Within each of those three octet ranges the units
 //! whose particles are all fixed when the layout is built come first. A
