@@ -32,8 +32,17 @@
 //!   built first (four runs); on two threads 0.960, 0.987 (AVX-512) and
 //!   0.965, 0.971 (AVX2);
 //! - ring discs of 40, 60 and 100 rings (5 000–30 000 particles): 0.986,
-//!   0.980 and 0.983, each the geometric mean of the two ways round;
+//!   0.980 and 0.983, each the geometric mean of the two ways round (a
+//!   probe that built twelve discs in a row read the sorted order 4–7 %
+//!   slower at these sizes, but its identical builds differed by up to
+//!   5 %: the effect at these sizes is not settled);
 //! - the tablecloth (1 801 rows, in L1 either way): 1.000–1.020, no change.
+//!
+//! The units are put in that order by a counting sort by nearest end
+//! before the one by colour and class; sorting each class in the loop
+//! from the units' first order instead had added 25–45 ms to disc-183's
+//! build. It now takes 10–25 ms more than the unsorted order's (180–300 ms
+//! in a busy hour, medians of 12 builds, three runs).
 //!
 //! **Still octets.** Within each of those three octet ranges the units
 //! whose particles are all fixed when the layout is built come first. A
@@ -123,22 +132,13 @@ impl Colouring {
             }
             coloured.push((colour, unit.class, k));
         }
-        // By colour, then class, then unit order (a counting sort: the keys
-        // are few).
-        let key = |u: &(u32, Class, usize)| u.0 as usize * 3 + u.1 as usize;
-        let mut start = vec![0usize; (MAX_COLOURS as usize + 1) * 3 + 1];
-        for u in &coloured {
-            start[key(u) + 1] += 1;
-        }
-        for k in 1..start.len() {
-            start[k] += start[k - 1];
-        }
-        let mut sorted = vec![(0, Class::Single, 0); coloured.len()];
-        for u in &coloured {
-            sorted[start[key(u)]] = *u;
-            start[key(u)] += 1;
-        }
-        let coloured = sorted;
+        // By nearest end (the lower row of a unit's first bar), then stably
+        // by colour and class: each class of a colour comes in the order of
+        // its rows (module docs), and the sorts in the loop below (still
+        // units first, then by nearest end) have little left to do. Both
+        // are counting sorts: the keys are rows, and colours times classes.
+        let coloured = by_key(&coloured, particles, |u| units[u.2].first.nearest() as usize);
+        let coloured = by_key(&coloured, (MAX_COLOURS as usize + 1) * 3, |u| u.0 as usize * 3 + u.1 as usize);
         let mut colouring = Colouring { particles, ..Colouring::default() };
         let push = |columns: &mut BarColumns, o: Oriented| {
             columns.a.push(ROW * o.a);
@@ -163,7 +163,7 @@ impl Colouring {
                 let mut carried: Vec<Unit> = Vec::new();
                 for (k, class) in [Class::Both, Class::AEnd].into_iter().enumerate() {
                     carried.extend(of(class));
-                    carried.sort_by_key(|u| (!still(u), u.first.a.min(u.first.b)));
+                    carried.sort_by_cached_key(|u| (!still(u), u.first.nearest()));
                     let whole = carried.len() / 4 * 4;
                     for octet in carried[..whole].chunks_exact(4) {
                         for unit in octet {
@@ -178,7 +178,7 @@ impl Colouring {
                 }
                 singles.extend(carried.iter().flat_map(Unit::bars));
                 singles.extend(of(Class::Single).flat_map(|u| u.bars()));
-                singles.sort_by_key(|o| (!still_bar(o), o.a.min(o.b)));
+                singles.sort_by_cached_key(|o| (!still_bar(o), o.nearest()));
             } else {
                 // The last group (no free colour) goes one bar at a time.
                 singles.extend(colour.iter().flat_map(|u| units[u.2].bars()));
@@ -259,6 +259,25 @@ impl Colouring {
         let start = if c == 0 { 0 } else { self.ends[c - 1] };
         start..self.ends[c]
     }
+}
+
+/// `items` sorted stably by `key`, whose values are below `keys`: a
+/// counting sort.
+fn by_key<T: Copy>(items: &[T], keys: usize, key: impl Fn(&T) -> usize) -> Vec<T> {
+    let mut start = vec![0usize; keys + 1];
+    for item in items {
+        start[key(item) + 1] += 1;
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut sorted = items.to_vec();
+    for item in items {
+        let k = key(item);
+        sorted[start[k]] = *item;
+        start[k] += 1;
+    }
+    sorted
 }
 
 #[cfg(test)]

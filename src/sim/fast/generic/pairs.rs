@@ -38,6 +38,13 @@ pub(super) struct Oriented {
     pub(super) b: u32,
 }
 
+impl Oriented {
+    /// Its nearer end to the first row: the lower of its two.
+    pub(super) fn nearest(&self) -> u32 {
+        self.a.min(self.b)
+    }
+}
+
 /// One bar, or two bars that share a lane pair.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Unit {
