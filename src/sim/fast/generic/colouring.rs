@@ -29,7 +29,7 @@
 //!
 //! - disc-183 on one thread: 0.955–0.993 with the sorted order built
 //!   second (AVX-512, seven runs; AVX2 0.967, 0.976), 0.973–0.986 with it
-//!   built first (four runs); on two threads 0.960, 0.987 (AVX-512) and
+//!   built first (three runs); on two threads 0.960, 0.987 (AVX-512) and
 //!   0.965, 0.971 (AVX2);
 //! - ring discs of 40, 60 and 100 rings (5 000–30 000 particles): 0.986,
 //!   0.980 and 0.983, each the geometric mean of the two ways round (a
@@ -330,7 +330,7 @@ mod tests {
             }
         }
         // Not a vacuous check: consecutive octets were compared (the rails
-        // make two octets in each of two colours, the rungs one).
+        // alone make two octets in each of their two colours).
         assert!(octets >= 2, "{octets} pairs of octets compared");
     }
 }
