@@ -75,6 +75,7 @@
 pub mod aero;
 pub mod collider;
 pub mod contact;
+pub(crate) mod csr;
 pub mod exact;
 pub mod fast;
 pub mod health;

@@ -27,7 +27,8 @@
 use rayon::prelude::*;
 
 use super::noise::{self, Field};
-use super::{AeroStep, PointLanes, TRIANGLES, csr, force};
+use super::{AeroStep, PointLanes, TRIANGLES, force};
+use crate::sim::csr::csr;
 use crate::sim::fast::kernel::LANES;
 use crate::sim::fast::rows::Rows;
 #[cfg(target_arch = "x86_64")]

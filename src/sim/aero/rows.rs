@@ -8,7 +8,8 @@ use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::noise::{self, Field};
-use super::{AeroStep, TRIANGLES, csr, force};
+use super::{AeroStep, TRIANGLES, force};
+use crate::sim::csr::csr;
 use crate::sim::step::Solver;
 
 /// Particles a task of the thread pool takes for the air's velocity.

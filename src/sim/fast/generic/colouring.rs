@@ -54,6 +54,7 @@
 //! (its table top fixed) the pass skips 952 of its 10 368 bars.
 
 use super::pairs::{self, Class, Oriented, Unit};
+use crate::sim::csr::csr;
 use crate::sim::mesh::Bar;
 
 /// Most colours tracked; bars that find none free go in one last group, which
@@ -136,9 +137,13 @@ impl Colouring {
         // by colour and class: each class of a colour comes in the order of
         // its rows (module docs), and the sorts in the loop below (still
         // units first, then by nearest end) have little left to do. Both
-        // are counting sorts: the keys are rows, and colours times classes.
-        let coloured = by_key(&coloured, particles, |u| units[u.2].first.nearest() as usize);
-        let coloured = by_key(&coloured, (MAX_COLOURS as usize + 1) * 3, |u| u.0 as usize * 3 + u.1 as usize);
+        // are counting sorts ([`csr`]): the keys are rows, and colours
+        // times classes.
+        let nearest = coloured.iter().enumerate().map(|(i, u)| (units[u.2].first.nearest(), i as u32));
+        let (_, by_row) = csr(particles, nearest);
+        let group = |i: u32| coloured[i as usize].0 * 3 + coloured[i as usize].1 as u32;
+        let (_, order) = csr((MAX_COLOURS as usize + 1) * 3, by_row.iter().map(|&i| (group(i), i)));
+        let coloured: Vec<(u32, Class, usize)> = order.iter().map(|&i| coloured[i as usize]).collect();
         let mut colouring = Colouring { particles, ..Colouring::default() };
         let push = |columns: &mut BarColumns, o: Oriented| {
             columns.a.push(ROW * o.a);
@@ -259,25 +264,6 @@ impl Colouring {
         let start = if c == 0 { 0 } else { self.ends[c - 1] };
         start..self.ends[c]
     }
-}
-
-/// `items` sorted stably by `key`, whose values are below `keys`: a
-/// counting sort.
-fn by_key<T: Copy>(items: &[T], keys: usize, key: impl Fn(&T) -> usize) -> Vec<T> {
-    let mut start = vec![0usize; keys + 1];
-    for item in items {
-        start[key(item) + 1] += 1;
-    }
-    for k in 1..start.len() {
-        start[k] += start[k - 1];
-    }
-    let mut sorted = items.to_vec();
-    for item in items {
-        let k = key(item);
-        sorted[start[k]] = *item;
-        start[k] += 1;
-    }
-    sorted
 }
 
 #[cfg(test)]
