@@ -57,6 +57,7 @@ mod generic;
 mod graph;
 mod grid;
 pub(crate) mod kernel;
+mod lines;
 pub(crate) mod rows;
 pub mod simd;
 pub(crate) mod wide_lanes;

@@ -29,6 +29,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::kernel::{Point, integrate, settle, tether};
+use super::lines::LineAligned;
 use crate::sim::contact::ContactStep;
 use crate::sim::mesh::Bar;
 use crate::sim::self_contact::{SelfContact, SelfContactStep};
@@ -49,7 +50,9 @@ struct Particle {
 /// colour order.
 #[derive(Clone, Debug)]
 pub(crate) struct GenericLayout {
-    particles: Vec<Particle>,
+    /// From a cache line's start: a dimer's two rows are one 32-byte
+    /// access that never straddles two lines ([`LineAligned`]).
+    particles: LineAligned<Particle>,
     displacement: Vec<[f32; 3]>,
     predicted: Vec<[f32; 3]>,
     bars: BlockedBars,
@@ -216,7 +219,7 @@ impl GenericLayout {
         let scene = |k: usize| renumbering.as_ref().map_or(k, |r| r.scene[k] as usize);
         let fixed: Vec<bool> = (0..n).map(|k| inverse_mass[scene(k)] == 0.0).collect();
         let mut layout = GenericLayout {
-            particles: vec![Particle::default(); n],
+            particles: LineAligned::zeroed(n),
             displacement: vec![[0.0; 3]; n],
             predicted: vec![[0.0; 3]; n],
             bars: BlockedBars::new(bars, n, &fixed),
