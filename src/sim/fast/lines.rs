@@ -9,7 +9,8 @@
 //! mod 64, every other such access straddles two cache lines, and a split
 //! access costs the core two. Which base a run got was left to chance: two
 //! identical builds of disc-183 in one process differed by up to 9 % on
-//! host F, the second built always the slower under glibc's allocator.
+//! host F, the second build the slower in each of three runs under
+//! glibc's allocator.
 //!
 //! Measured on host F (Intel Xeon, Emerald Rapids; one thread, AVX-512
 //! build; a probe allocator that placed chosen buffers at a chosen offset
@@ -17,7 +18,8 @@
 //! alternated window by window, ratio of medians of 12–20 windows): the
 //! particles at 16 or 48 mod 64 against 0, disc-183 +2.1, +4.3, +5.2,
 //! +4.3 %; the tablecloth +2.9, +6.5 % (16), +1.5, +2.6 % (48). At 32
-//! mod 64 (no straddle) −0.4 to +0.7 % (noise). The cost of this type: up
+//! mod 64 (no straddle) −0.4, +0.7 and +3.5 %, within the ±3 % such a
+//! probe reads with no change. The cost of this type: up
 //! to 63 bytes more.
 
 use std::fmt;

@@ -38,6 +38,13 @@
 //!   5 %: the effect at these sizes is not settled);
 //! - the tablecloth (1 801 rows, in L1 either way): 1.000–1.020, no change.
 //!
+//! The builds' difference was the particles' place against the cache
+//! lines (`fast/lines.rs`), which biased each of those readings by up to
+//! ±5 %. With the particles on a line's start, disc-183 on one thread
+//! (AVX-512, four pairs of runs, each pair both ways round, geometric
+//! mean) read 0.983, 0.993, 0.987 and 0.982: the sorted order takes about
+//! 1–2 % off the step, not the 1–4 % read before.
+//!
 //! The units are put in that order by a counting sort by nearest end
 //! before the one by colour and class; sorting each class in the loop
 //! from the units' first order instead had added 25–45 ms to disc-183's
