@@ -28,7 +28,9 @@ use std::ops::{Deref, DerefMut};
 
 use bytemuck::{Pod, Zeroable};
 
-/// Bytes in a cache line on the x86-64 and AArch64 cores drape runs on.
+/// Bytes in a cache line on the x86-64 and AArch64 cores drape runs on
+/// (four 16-byte rows): what a prefetch brings in, and where a
+/// [`LineAligned`] starts.
 pub(crate) const LINE_BYTES: usize = 64;
 
 /// One cache line of storage: its alignment is what aligns the buffer.

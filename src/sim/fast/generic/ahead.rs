@@ -41,11 +41,8 @@
 use std::ops::Range;
 
 use super::Particle;
+use crate::sim::fast::lines::LINE_BYTES as LINE;
 use crate::sim::fast::rows::prefetch;
-
-/// Bytes a prefetch brings in (a cache line: four 16-byte rows).
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-const LINE: usize = 64;
 
 /// A cursor over rows to prefetch, one line a call of [`Ahead::line`]. It
 /// holds the rows' addresses only (it never reads or writes through them),
