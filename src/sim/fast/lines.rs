@@ -28,9 +28,10 @@ use std::ops::{Deref, DerefMut};
 
 use bytemuck::{Pod, Zeroable};
 
-/// Bytes in a cache line on the x86-64 and AArch64 cores drape runs on
-/// (four 16-byte rows): what a prefetch brings in, and where a
-/// [`LineAligned`] starts.
+/// Bytes in a cache line on x86-64 and most AArch64 cores (four 16-byte
+/// rows; Apple's cores have 128, on which a 32-byte access from a 64-byte
+/// boundary never straddles either): what a prefetch brings in, and where
+/// a [`LineAligned`] starts.
 pub(crate) const LINE_BYTES: usize = 64;
 
 /// One cache line of storage: its alignment is what aligns the buffer.
@@ -41,6 +42,7 @@ struct Line([u8; LINE_BYTES]);
 /// `len` values of `T` from the start of a cache line (module docs); it
 /// derefs to `[T]`. `T` is plain data ([`Pod`]) whose size divides 64
 /// (a line holds a whole number of them).
+#[derive(Clone)]
 pub(crate) struct LineAligned<T: Pod> {
     lines: Vec<Line>,
     len: usize,
@@ -52,18 +54,12 @@ impl<T: Pod> LineAligned<T> {
     pub(crate) fn zeroed(len: usize) -> Self {
         const {
             assert!(
-                size_of::<T>() > 0 && LINE_BYTES.is_multiple_of(size_of::<T>()) && align_of::<T>() <= LINE_BYTES,
-                "a line holds a whole number of items, at their alignment"
+                size_of::<T>() > 0 && LINE_BYTES.is_multiple_of(size_of::<T>()),
+                "a line holds a whole number of items (so each is at its alignment)"
             )
         };
-        let lines = vec![Line([0; LINE_BYTES]); (len * size_of::<T>()).div_ceil(LINE_BYTES)];
+        let lines = vec![Line::zeroed(); (len * size_of::<T>()).div_ceil(LINE_BYTES)];
         LineAligned { lines, len, item: PhantomData }
-    }
-
-    /// The address of the first value, for tests.
-    #[cfg(test)]
-    fn address(&self) -> usize {
-        self.lines.as_ptr() as usize
     }
 }
 
@@ -80,30 +76,6 @@ impl<T: Pod> Deref for LineAligned<T> {
 impl<T: Pod> DerefMut for LineAligned<T> {
     fn deref_mut(&mut self) -> &mut [T] {
         &mut bytemuck::cast_slice_mut(&mut self.lines)[..self.len]
-    }
-}
-
-impl<'a, T: Pod> IntoIterator for &'a LineAligned<T> {
-    type Item = &'a T;
-    type IntoIter = std::slice::Iter<'a, T>;
-
-    fn into_iter(self) -> Self::IntoIter {
-        self.iter()
-    }
-}
-
-impl<'a, T: Pod> IntoIterator for &'a mut LineAligned<T> {
-    type Item = &'a mut T;
-    type IntoIter = std::slice::IterMut<'a, T>;
-
-    fn into_iter(self) -> Self::IntoIter {
-        self.iter_mut()
-    }
-}
-
-impl<T: Pod> Clone for LineAligned<T> {
-    fn clone(&self) -> Self {
-        LineAligned { lines: self.lines.clone(), len: self.len, item: PhantomData }
     }
 }
 
@@ -147,7 +119,9 @@ mod tests {
         // (16-byte aligned with glibc), each on a line by chance one time
         // in four, all 35 about once in 4^35.
         let more: Vec<LineAligned<[f32; 4]>> = (1..=32).map(LineAligned::zeroed).collect();
-        let starts = [a.address(), b.address(), c.address()].into_iter().chain(more.iter().map(|m| m.address()));
+        let starts = [a.as_ptr() as usize, b.as_ptr() as usize, c.as_ptr() as usize]
+            .into_iter()
+            .chain(more.iter().map(|m| m.as_ptr() as usize));
         let off: Vec<usize> = starts.map(|s| s % LINE_BYTES).filter(|&o| o != 0).collect();
         assert!(off.is_empty(), "buffers {off:?} bytes past a line's start");
     }

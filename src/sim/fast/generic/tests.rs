@@ -287,7 +287,7 @@ fn collide_gives_every_collider_s_bits_in_chunks_on_one_thread_and_on_two() {
     let n = positions.len();
     let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { 1.0 }).collect();
     let mut layout = GenericLayout::new(&positions, &positions, &weights, &bars, None);
-    for (q, p) in layout.predicted.iter_mut().zip(&layout.particles) {
+    for (q, p) in layout.predicted.iter_mut().zip(layout.particles.iter()) {
         *q = p.position;
     }
     // Each particle came from its own start x0 = x − d, up to 2 cm away in
@@ -346,7 +346,7 @@ fn self_collide_runs_the_phase_in_the_layouts_order_on_one_thread_and_on_two() {
     let weights: Vec<f32> = (0..n).map(|i| if i % 97 == 0 { 0.0 } else { 1.0 }).collect();
     let mut layout = GenericLayout::new(&squeezed, &squeezed, &weights, &bars, None);
     let scene = layout.renumbering.as_ref().expect("renumbered").scene.clone();
-    for (q, p) in layout.predicted.iter_mut().zip(&layout.particles) {
+    for (q, p) in layout.predicted.iter_mut().zip(layout.particles.iter()) {
         *q = p.position;
     }
     let step = SelfContactStep { thickness: 0.12, friction: 0.2, parallel: true };
