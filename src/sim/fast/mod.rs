@@ -53,6 +53,7 @@
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx;
+pub(crate) mod f32x8;
 mod generic;
 mod graph;
 mod grid;
