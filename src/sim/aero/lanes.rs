@@ -186,7 +186,7 @@ impl LaneForm {
             && tiles.iter().zip(tile_starts.windows(2)).all(|((x, _), w)| x.len() == (w[1] - w[0]) as usize);
         if !fits {
             // The simulation builds the phase for its solver's lanes
-            // (`aerodynamics` in `simulation.rs`); were another solver to
+            // (`aerodynamics` in `simulation/setup.rs`); were another solver to
             // get it, the air would push nothing, and says so.
             log::error!("the air phase was built for lanes the solver does not have: no air force");
             self.scale = 0.0;

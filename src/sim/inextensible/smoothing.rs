@@ -9,7 +9,7 @@
 //! no two consecutive edges sharing a particle, cut into runs of
 //! independent edges. On rigid edges (β = 0) a run's edges go eight at a
 //! time in the lanes of an AVX register (positions as 16-byte rows, eight
-//! rows transposed into lanes and back, [`Rows`]), the run's last
+//! rows transposed into lanes and back, [`Rows`](crate::sim::fast::rows::Rows)), the run's last
 //! `n mod 8` one at a time; each lane computes what the edge alone would
 //! ([`move_ends`], written once for both), so the result has the bits of
 //! one by one.

@@ -207,3 +207,74 @@ impl Grid {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bar_count(c: u32, r: u32) -> usize {
+        let (c, r) = (c as usize, r as usize);
+        (c - 1) * r + c * (r - 1) + 2 * (c - 1) * (r - 1) + c.saturating_sub(2) * r + c * r.saturating_sub(2)
+    }
+
+    #[test]
+    fn grid_bar_counts_follow_the_formula() {
+        for (c, r) in [(2, 2), (3, 5), (20, 30), (7, 1), (1, 7)] {
+            let mesh = Grid { columns: c, rows: r, ..Grid::default() }.build().unwrap();
+            let c1 = c.max(1) as usize;
+            let expected = if c == 1 || r == 1 {
+                // A single row or column: a chain with bend bars.
+                let n = (c * r) as usize;
+                (n - 1) + n.saturating_sub(2)
+            } else {
+                bar_count(c, r)
+            };
+            assert_eq!(mesh.bars().len(), expected, "{c}×{r} (c1 {c1})");
+            assert_eq!(mesh.triangles().len(), 2 * (c as usize - 1) * (r as usize - 1));
+        }
+    }
+
+    #[test]
+    fn grid_rest_lengths_are_spacing_diagonal_and_double() {
+        let s = 0.25;
+        let mesh = Grid { columns: 4, rows: 4, spacing: s, ..Grid::default() }.build().unwrap();
+        for bar in mesh.bars() {
+            let l = bar.rest_length;
+            let ok = match bar.kind {
+                BarKind::Structural => (l - s).abs() < 1e-6,
+                BarKind::Shear => (l - s * 2f32.sqrt()).abs() < 1e-6,
+                BarKind::Bend => (l - 2.0 * s).abs() < 1e-6,
+            };
+            assert!(ok, "{bar:?}");
+        }
+    }
+
+    #[test]
+    fn pins_select_the_documented_cells() {
+        let count = |pins| {
+            let m = Grid { columns: 5, rows: 4, pins, ..Grid::default() }.build().unwrap();
+            m.fixed().iter().filter(|&&f| f).count()
+        };
+        assert_eq!(count(Pins::None), 0);
+        assert_eq!(count(Pins::TopRow), 5);
+        assert_eq!(count(Pins::TopCorners), 2);
+        assert_eq!(count(Pins::LeftColumn), 4);
+        assert_eq!(count(Pins::Cells(vec![[4, 3], [0, 0]])), 2);
+        let err = Grid { columns: 5, rows: 4, pins: Pins::Cells(vec![[5, 0]]), ..Grid::default() }.build();
+        assert!(matches!(err, Err(MeshError::BadGrid { .. })), "{err:?}");
+    }
+
+    #[test]
+    fn vertical_grid_hangs_from_row_zero() {
+        let mesh = Grid { columns: 3, rows: 3, spacing: 1.0, ..Grid::default() }.build().unwrap();
+        let p = mesh.positions();
+        assert_eq!(p[0], Vec3::new(-1.0, 2.0, 0.0));
+        assert_eq!(p[8], Vec3::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn oversized_grid_is_rejected_before_allocation() {
+        let err = Grid { columns: u32::MAX, rows: u32::MAX, ..Grid::default() }.build();
+        assert!(matches!(err, Err(MeshError::TooManyParticles { .. })), "{err:?}");
+    }
+}

@@ -79,7 +79,7 @@ pub(super) struct BarColumns {
     pub(super) b: Vec<u32>,
     /// Rest length L (m).
     pub(super) rest: Vec<f32>,
-    /// [`crate::sim::BarKind::index`]: an index into [`Sweep::betas`].
+    /// [`crate::sim::BarKind::index`]: an index into [`Substep::betas`](crate::sim::step::Substep::betas).
     pub(super) kind: Vec<u8>,
 }
 

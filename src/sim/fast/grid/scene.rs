@@ -2,7 +2,7 @@
 //! rows:
 //! - *scene order* (x with x − d, the positions a substep ago): row by row
 //!   of the scene where each scene row is a row of slots in every tile
-//!   ([`super::scene_rows`]), a slot's eight lanes transposed into eight
+//!   ([`super::build::scene_rows`]), a slot's eight lanes transposed into eight
 //!   rows, else particle by particle through its location;
 //! - *lane order* (the self-collide phase's x, x_pred − d and w, and x
 //!   written back): the particles as the tiles hold them, tile by tile,
@@ -29,7 +29,7 @@ const CHUNK: usize = 4096;
 impl GridLayout {
     /// Positions x and x − d in scene order, each as `to` makes it: row by
     /// row of the scene where each is a row of slots in every tile
-    /// ([`super::scene_rows`]), else particle by particle; in chunks on the
+    /// ([`super::build::scene_rows`]), else particle by particle; in chunks on the
     /// thread pool for large grids.
     pub(super) fn read_as<T: Send>(&self, positions: &mut [T], previous: &mut [T], to: impl Fn(Vec3) -> T + Sync) {
         if !self.scene_rows.is_empty() {
@@ -39,7 +39,7 @@ impl GridLayout {
         }
     }
 
-    /// [`Self::read_as`] row by row of the scene ([`super::scene_rows`]):
+    /// [`Self::read_as`] row by row of the scene ([`super::build::scene_rows`]):
     /// each tile's slots of the row, each slot's eight lanes transposed
     /// into rows ([`Rows`]) and written to their places in the scene row,
     /// `block` apart. The same bits as particle by particle; with AVX2 the
@@ -244,7 +244,7 @@ fn scene_row_avx2<T>(
 }
 
 /// One scene row's x and x − d, as `to` makes them, from the slots
-/// `start..start + block` of every tile ([`super::scene_rows`]): lane l of
+/// `start..start + block` of every tile ([`super::build::scene_rows`]): lane l of
 /// slot start + k of tile t is the row's particle
 /// t · 8 · block + l · block + k.
 #[inline(always)]

@@ -129,7 +129,7 @@ pub(super) fn sweep_passes(all: &mut [Tile], sweep: &Sweep, passes: u32, paralle
 dispatch! {
     /// Projects the seam bars between tile `a` and the next, `b`: group by
     /// group, the up to eight bars of a group (no shared particle, one kind
-    /// and rest length: [`super::seam_groups`]) in the lanes of one
+    /// and rest length: [`super::build::seam_groups`]) in the lanes of one
     /// operation.
     fn relax_boundary(a: &mut Tile, b: &mut Tile, sweep: &Sweep) -> f32
         = relax_boundary_body::<fused>, best = ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma"]

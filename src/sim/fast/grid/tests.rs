@@ -1,5 +1,7 @@
+use super::ops::{KIND_SHIFT, ROTATED};
 use super::*;
 use crate::sim::mesh::{Bar, Grid, Pins};
+use crate::sim::mesh::{ClothMesh, GridShape};
 use crate::sim::reference::ReferenceSolver;
 use crate::sim::step::{Solver, Substep};
 

@@ -5,21 +5,25 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::aero::{AeroStep, Aerodynamics};
-use super::collider::{Collider, Motion, Pose};
-use super::contact::ContactStep;
-use super::fast;
-use super::hierarchy::{CoarseStep, Hierarchy};
-use super::hold::{Hold, Holds};
-use super::inextensible::{FastProjection, ProjectionError, ProjectionReport, ProjectionStep};
+use super::aero::Aerodynamics;
+use super::collider::{Collider, Pose};
+use super::hierarchy::Hierarchy;
+use super::hold::Holds;
+use super::inextensible::{FastProjection, ProjectionError, ProjectionReport};
 use super::mesh::{Bar, ClothMesh};
 use super::metrics::{self, Strain};
-use super::params::{ParamError, SolverParams, Start};
+use super::params::{ParamError, SolverParams};
 use super::reference::ReferenceSolver;
-use super::self_contact::{SelfContact, SelfContactStep};
-use super::step::{Phases, Solver, Substep, run_substep};
+use super::self_contact::SelfContact;
+use super::step::Solver;
 use super::tether::Tethers;
 use super::units;
+
+mod advance;
+mod grips;
+mod setup;
+
+use setup::{Derived, aerodynamics, build_solver, hierarchy};
 
 /// Which solver advances the cloth. Both implement the same equations; they
 /// differ in order of work and speed (see [`super::reference`]).
@@ -416,239 +420,6 @@ impl Simulation {
         self.diverged.as_ref()
     }
 
-    /// One step of h.
-    pub fn step(&mut self) -> Result<(), SimError> {
-        self.advance(1)
-    }
-
-    /// `n` steps of h. Stops with [`SimError::Diverged`] at the first step that
-    /// leaves a non-finite position; the positions then stay those of the last
-    /// call that succeeded.
-    ///
-    /// A large cloth's step runs many short loops on rayon's thread pool
-    /// (two per relaxation pass on a grid of 16 384 particles or more).
-    /// Called from a thread outside the pool, each loop would hand its work
-    /// to the pool and put the caller to sleep until it is done; so when the
-    /// solver's relaxation uses the pool ([`Solver::uses_pool`]), such a call
-    /// hands the pool the whole call once, and the loops start on a worker
-    /// at once (5–8 % off a 256 × 256 step on two threads, host D). A
-    /// smaller cloth stays on the calling thread (moving its step to a
-    /// worker cost a 100 × 100 grid 4–10 %). The result is the same either
-    /// way.
-    pub fn advance(&mut self, n: u64) -> Result<(), SimError> {
-        if self.solver.uses_pool() && rayon::current_thread_index().is_none() {
-            return rayon::scope(|_| self.advance_on_this_thread(n));
-        }
-        self.advance_on_this_thread(n)
-    }
-
-    /// [`Self::advance`] on the calling thread.
-    fn advance_on_this_thread(&mut self, n: u64) -> Result<(), SimError> {
-        if let Some(e) = &self.diverged {
-            return Err(e.clone());
-        }
-        let p = self.params.clone();
-        let dt = p.substep_dt();
-        let mass = self.material.mean;
-        let beta = |alpha: f32| alpha * mass / (dt * dt);
-        // Gravity is a force (the seed's) or an acceleration (g).
-        let (gravity_force, gravity) = match p.gravity_acceleration {
-            Some(g) => (Vec3::ZERO, g * (dt * dt)),
-            None => (p.gravity, Vec3::ZERO),
-        };
-        for _ in 0..n {
-            // The wind is sampled once per step, at its start.
-            let mut force = gravity_force;
-            if !p.wind.is_none() {
-                force += p.wind.force(self.time);
-            }
-            let accel = force * (dt * dt / mass);
-            let mut substep = Substep {
-                dt,
-                keep: 1.0 - p.substep_damping(),
-                accel,
-                gravity,
-                first: None,
-                relaxations: p.relaxations,
-                tolerance: p.tolerance,
-                over_relaxation: p.over_relaxation,
-                stretch_beta: beta(self.material.stretch_compliance),
-                bend_beta: beta(self.material.bend_compliance),
-                shear_beta: beta(self.material.shear_compliance),
-                tether_slack: p.tether_slack,
-            };
-            for k in 0..p.substeps {
-                substep.first = (self.steps == 0 && k == 0).then(|| {
-                    let extra = match p.start {
-                        Start::Euler => Vec3::ZERO,
-                        // Exact for equal masses; with a density and g, a
-                        // particle of weight w gets ½h²g·w (w ≠ 1 only at edges).
-                        Start::SecondOrder => 0.5 * (accel + gravity),
-                    };
-                    (self.mesh.velocities(), extra)
-                });
-                let contact = (!self.colliders.is_empty())
-                    .then(|| contact_step(&self.colliders, &self.dragged, &p, self.time, k));
-                let self_step = SelfContactStep { thickness: p.thickness, friction: p.friction, parallel: true };
-                let air_step = p.wind.air().map(|&air| AeroStep {
-                    air,
-                    time: self.time + f64::from(dt) * f64::from(k),
-                    dt,
-                    displacement_per_newton: dt * dt / mass,
-                    parallel: true,
-                });
-                let project_step = ProjectionStep {
-                    weights: &self.inverse_mass,
-                    beta: substep.stretch_beta,
-                    iterations: p.newton_iterations,
-                    tolerance: p.newton_tolerance,
-                    smoothing: p.newton_smoothing,
-                };
-                let coarse_step = CoarseStep { weights: &self.inverse_mass, passes: p.coarse_passes, parallel: true };
-                let holding = !self.holds.list.is_empty();
-                let phases = Phases {
-                    air: self.aero.as_mut().zip(air_step.as_ref()),
-                    hold: holding.then_some((&mut self.holds, &self.inverse_mass[..])),
-                    coarse: self.hierarchy.as_mut().map(|phase| (phase, &coarse_step)),
-                    project: self.projection.as_mut().map(|phase| (phase, &project_step)),
-                    self_contact: self.self_contact.as_mut().map(|phase| (phase, &self_step)),
-                    contact: contact.as_ref(),
-                };
-                self.last_passes = run_substep(self.solver.as_mut(), &substep, phases);
-            }
-            self.steps += 1;
-            self.time += f64::from(p.dt);
-            self.finish_drags();
-            if let Some(particle) = self.solver.first_non_finite() {
-                let e = SimError::Diverged { step: self.steps, particle };
-                self.diverged = Some(e.clone());
-                return Err(e);
-            }
-        }
-        self.solver.read(&mut self.positions, &mut self.previous);
-        Ok(())
-    }
-
-    /// Colliders moved by hand stay where they were put.
-    fn finish_drags(&mut self) {
-        for (index, _, to) in self.dragged.drain(..) {
-            let c = &mut self.colliders[index];
-            c.pose = to;
-            c.motion = Motion::Fixed;
-        }
-    }
-
-    /// Fixes or frees a particle: a write of its inverse mass (0 or 1), not
-    /// a rebuild. With tethers on, the attachments are recomputed (they
-    /// depend on which particles are fixed).
-    ///
-    /// A particle being fixed comes to rest (its previous position becomes
-    /// its current one), so one freed later starts from rest rather than
-    /// with the velocity it had when it was fixed; moving it while fixed
-    /// ([`Self::move_particle`], a drag) gives it that move's velocity.
-    pub fn set_fixed(&mut self, index: usize, fixed: bool) -> Result<(), SimError> {
-        self.check_index(index)?;
-        if self.fixed[index] != fixed {
-            self.fixed[index] = fixed;
-            let weight = if fixed { 0.0 } else { self.free_weight(&self.material, index) };
-            self.inverse_mass[index] = weight;
-            self.solver.set_inverse_mass(index, weight);
-            if fixed {
-                self.previous[index] = self.positions[index];
-                self.solver.set_particle(index, self.positions[index], self.previous[index]);
-            }
-            if self.params.tether_slack.is_some() {
-                self.refresh_tethers();
-            }
-        }
-        Ok(())
-    }
-
-    /// Holds free particle `index` toward `target` with a grip of at most
-    /// `max_acceleration` m/s² (see [`super::hold`]); holding it again
-    /// moves the target. It stays free, so the bars (and the inextensible
-    /// projection) share the pull instead of stretching to wherever the
-    /// hand is; and it has the hand's reach: every particle is kept within
-    /// its rest path length of it, and it within the pins' reach, so a fast
-    /// pull does not outrun the passes. A fixed particle is not moved by a
-    /// hold.
-    pub fn hold(&mut self, index: usize, target: Vec3, max_acceleration: f32) -> Result<(), SimError> {
-        self.hold_with(index, target, max_acceleration, true)
-    }
-
-    /// [`Self::hold`] with the hand's reach (`reach`) or without it: the
-    /// bounded pull alone, which a fast hand outruns. The choice is made
-    /// when the particle is first held. Starting a hold with a reach finds
-    /// the rest path to every particle (Dijkstra's algorithm over the bars).
-    pub fn hold_with(
-        &mut self,
-        index: usize,
-        target: Vec3,
-        max_acceleration: f32,
-        reach: bool,
-    ) -> Result<(), SimError> {
-        self.check_index(index)?;
-        if !target.is_finite() {
-            return Err(SimError::Param(ParamError::new("hold target", target, "finite coordinates")));
-        }
-        if !(max_acceleration > 0.0 && max_acceleration.is_finite()) {
-            return Err(SimError::Param(ParamError::new(
-                "hold max_acceleration",
-                max_acceleration,
-                "m/s², finite and > 0",
-            )));
-        }
-        let hold = Hold { particle: index, target, max_acceleration };
-        match self.holds.list.iter_mut().find(|h| h.particle == index) {
-            Some(h) => *h = hold,
-            None => {
-                self.holds.list.push(hold);
-                if !self.fixed[index] {
-                    let weight = self.free_weight(&self.material, index);
-                    self.inverse_mass[index] = weight;
-                    self.solver.set_inverse_mass(index, weight);
-                }
-                let lengths = reach.then(|| self.reach_from(index));
-                self.holds.set_reach(index, lengths);
-            }
-        }
-        Ok(())
-    }
-
-    /// The rest path length along the bars from particle `index` to every
-    /// particle (metres, infinite where no path leads).
-    fn reach_from(&self, index: usize) -> Vec<f32> {
-        let mut from = vec![false; self.positions.len()];
-        from[index] = true;
-        let tethers = Tethers::new(self.positions.len(), self.mesh.bars(), &from);
-        tethers.anchor.iter().zip(tethers.length).map(|(a, l)| if a.is_some() { l } else { f32::INFINITY }).collect()
-    }
-
-    /// Lets go of particle `index` if it is held; it keeps its velocity
-    /// and its own weight.
-    pub fn release(&mut self, index: usize) {
-        let before = self.holds.list.len();
-        self.holds.list.retain(|h| h.particle != index);
-        self.holds.set_reach(index, None);
-        if self.holds.list.len() < before && !self.fixed[index] {
-            let weight = self.material.weight[index];
-            self.inverse_mass[index] = weight;
-            self.solver.set_inverse_mass(index, weight);
-        }
-    }
-
-    /// The weight (inverse mass relative to m̄) of free particle `i` under
-    /// `material`: its own, or a hand's while it is held.
-    fn free_weight(&self, material: &Derived, i: usize) -> f32 {
-        let held = self.holds.list.iter().any(|h| h.particle == i);
-        material.weight[i] * if held { HAND_WEIGHT } else { 1.0 }
-    }
-
-    /// The particles held now.
-    pub fn holds(&self) -> &[Hold] {
-        &self.holds.list
-    }
-
     /// The grid's coarse levels the coarse phase works on (0 while
     /// `coarse_passes` is 0).
     pub fn coarse_levels(&self) -> usize {
@@ -666,21 +437,6 @@ impl Simulation {
     /// while the cloth is not inextensible).
     pub fn last_projection(&self) -> Option<ProjectionReport> {
         self.projection.as_ref().map(FastProjection::last_report)
-    }
-
-    /// Puts a particle at `position` (as a mouse drag does). Its previous
-    /// position becomes its current one, so a free particle keeps the motion
-    /// of the move as velocity.
-    pub fn move_particle(&mut self, index: usize, position: Vec3) -> Result<(), SimError> {
-        self.check_index(index)?;
-        if !position.is_finite() {
-            return Err(SimError::Param(ParamError::new("position", position, "finite coordinates")));
-        }
-        let previous = self.positions[index];
-        self.positions[index] = position;
-        self.previous[index] = previous;
-        self.solver.set_particle(index, position, previous);
-        Ok(())
     }
 
     /// Replaces the state: current positions x_i and previous positions
@@ -775,102 +531,5 @@ impl Simulation {
     fn refresh_tethers(&mut self) {
         let tethers = self.tethers();
         self.solver.set_tethers(tethers);
-    }
-}
-
-/// A held particle's weight relative to its own: the hand is 50 times
-/// heavier, so the bars and the projection move the cloth toward the hand
-/// rather than the hand back toward the cloth ([`super::hold`]).
-const HAND_WEIGHT: f32 = 0.02;
-
-/// What the parameters and the mesh make of masses and stiffness.
-#[derive(Clone, Debug, PartialEq)]
-struct Derived {
-    /// m_i, kg.
-    mass: Vec<f32>,
-    /// m̄, kg.
-    mean: f32,
-    /// m̄ / m_i: the weight of each particle while free.
-    weight: Vec<f32>,
-    /// α of structural, bend and shear bars, m/N.
-    stretch_compliance: f32,
-    bend_compliance: f32,
-    shear_compliance: f32,
-}
-
-impl Derived {
-    fn new(mesh: &ClothMesh, p: &SolverParams) -> Result<Self, ParamError> {
-        let n = mesh.particle_count();
-        let (mass, mean, weight) = match p.density {
-            None => (vec![p.mass; n], p.mass, vec![1.0; n]),
-            Some(sigma) => {
-                let mass = units::particle_masses(mesh, sigma)?;
-                let mean = (mass.iter().map(|&m| f64::from(m)).sum::<f64>() / n.max(1) as f64) as f32;
-                let weight = mass.iter().map(|&m| mean / m).collect();
-                (mass, mean, weight)
-            }
-        };
-        let stretch_compliance = match p.stretch_stiffness {
-            Some(k) => units::stretch_compliance(mesh, k)?.min(super::params::MAX_COMPLIANCE),
-            None => p.stretch_compliance,
-        };
-        let bend_compliance = match p.bend_stiffness {
-            Some(b) => units::bend_compliance(mesh, b)?.min(super::params::MAX_COMPLIANCE),
-            None => p.bend_compliance,
-        };
-        let shear_compliance = p.shear_compliance.unwrap_or(stretch_compliance);
-        Ok(Self { mass, mean, weight, stretch_compliance, bend_compliance, shear_compliance })
-    }
-}
-
-/// The coarse phase when `p` asks for coarse passes; an error on a mesh
-/// that is not a grid.
-fn hierarchy(mesh: &ClothMesh, p: &SolverParams) -> Result<Option<Hierarchy>, SimError> {
-    if p.coarse_passes == 0 {
-        return Ok(None);
-    }
-    Hierarchy::new(mesh).map(Some).ok_or(SimError::CoarseNeedsGrid { passes: p.coarse_passes })
-}
-
-/// The air phase, when the wind is "air" (the mesh has triangles:
-/// [`units::check_surface`]), reading `solver`'s lanes where it has them.
-fn aerodynamics(mesh: &ClothMesh, p: &SolverParams, m: &Derived, solver: &dyn Solver) -> Option<Aerodynamics> {
-    p.wind.air().map(|_| Aerodynamics::new(mesh, &m.mass, solver.lanes().map(|lanes| lanes.places()).as_ref()))
-}
-
-/// The colliders placed for substep `k` of the step that starts at `time`;
-/// a collider moved by hand goes from where it was to where it was put.
-fn contact_step<'a>(
-    colliders: &'a [Collider],
-    dragged: &[(usize, Pose, Pose)],
-    p: &SolverParams,
-    time: f64,
-    k: u32,
-) -> ContactStep<'a> {
-    let n = p.substeps as f32;
-    let (s0, s1) = (k as f32 / n, (k + 1) as f32 / n);
-    let h = f64::from(p.dt);
-    let (t0, t1) = (time + h * f64::from(s0), time + h * f64::from(s1));
-    let placed = colliders.iter().enumerate().map(move |(i, c)| match dragged.iter().find(|d| d.0 == i) {
-        Some(&(_, from, to)) => (c, from.lerp(&to, s0), from.lerp(&to, s1)),
-        None => (c, c.pose_at(t0), c.pose_at(t1)),
-    });
-    ContactStep::with_poses(placed, p.thickness, p.friction)
-}
-
-/// The solver of this kind for this state.
-fn build_solver(
-    kind: SolverKind,
-    mesh: &ClothMesh,
-    state: (&[Vec3], &[Vec3]),
-    inverse_mass: &[f32],
-    tethers: Option<Tethers>,
-) -> Box<dyn Solver> {
-    let (positions, previous) = state;
-    match kind {
-        SolverKind::Reference => {
-            Box::new(ReferenceSolver::new(positions, previous, inverse_mass, mesh.bars(), tethers))
-        }
-        SolverKind::Fast => fast::new(mesh, positions, previous, inverse_mass, mesh.bars(), tethers),
     }
 }
