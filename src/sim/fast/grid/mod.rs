@@ -65,8 +65,10 @@
 //!
 //! **Contact.** The collide phase gives every tile the colliders whose box
 //! meets the tile's box of start and end positions, and resolves its
-//! particles one by one with [`ContactStep::resolve`](crate::sim::contact::ContactStep::resolve), the function the
+//! particles one by one with [`ContactStep::resolve`], the function the
 //! reference solver calls, tiles in parallel on large grids.
+//!
+//! [`ContactStep::resolve`]: crate::sim::contact::ContactStep::resolve
 
 mod build;
 mod ops;
