@@ -1,7 +1,7 @@
 //! Scenes in the viewer: loading and switching (the panel's list or a
-//! typed path, a file dropped on the window), reloading a scene file when it is saved (the camera
-//! kept), and the time mode a scene opens in (real time, or a step a frame
-//! when the solver is too slow for it).
+//! typed path, a file dropped on the window), reloading a scene file when
+//! it is saved (the camera kept), and the time mode a scene opens in (real
+//! time, or a step a frame when the solver is too slow for it).
 
 use super::{Drag, Timeline, Viewer};
 use crate::render::{OrbitCamera, ViewOptions};
