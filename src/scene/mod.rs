@@ -15,12 +15,14 @@ mod bundled;
 pub mod colliders;
 mod file;
 mod obj;
+mod translate;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub use bundled::{BUNDLED, BundledScene};
-pub use file::{SceneFile, parse_obj};
+pub use file::SceneFile;
+pub use obj::parse_obj;
 
 use crate::sim::{ClothMesh, Collider, MeshError, SimError, Simulation, SolverKind, SolverParams};
 
@@ -196,7 +198,7 @@ impl Origin {
 
 /// Parses and validates scene text.
 pub fn parse(text: &str, origin: &Origin) -> Result<Scene, SceneError> {
-    file::build(text, origin).map_err(|kind| SceneError::new(origin.display(), kind))
+    translate::build(text, origin).map_err(|kind| SceneError::new(origin.display(), kind))
 }
 
 #[cfg(test)]

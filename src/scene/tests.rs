@@ -116,18 +116,18 @@ fn obj_errors() {
 
 #[test]
 fn obj_text_parses_faces_as_triangles() {
-    let (p, t) = file::parse_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    let (p, t) = obj::parse_obj("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
     assert_eq!(p.len(), 4);
     assert_eq!(t.len(), 2);
-    assert!(file::parse_obj("# nothing\n").is_err());
+    assert!(obj::parse_obj("# nothing\n").is_err());
     // An OBJ file that cannot be read names the scene's [obj] table.
     let e = err("[obj]\npath = \"x\"\n");
     assert!(e.contains("[obj]"), "{e}");
     // A face naming vertices that do not exist is an error that says so.
-    let bad = file::parse_obj("v 0 0 0\nf 1 2 3\n").unwrap_err();
+    let bad = obj::parse_obj("v 0 0 0\nf 1 2 3\n").unwrap_err();
     assert!(bad.contains("the file has 1"), "{bad}");
-    assert!(file::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").unwrap_err().contains("counts from 1"));
-    assert!(file::parse_obj("v 0 zero 0\n").unwrap_err().contains("line 1: 'zero'"));
+    assert!(obj::parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").unwrap_err().contains("counts from 1"));
+    assert!(obj::parse_obj("v 0 zero 0\n").unwrap_err().contains("line 1: 'zero'"));
 }
 
 #[test]
@@ -139,7 +139,7 @@ fn obj_vertices_keep_the_files_numbering() {
     // split vertex 3 in two.
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvn 0 0 1\n\
                 o a\nf 4/1/1 3//1 2\no b\nf -2 -1 1\n";
-    let (p, t) = file::parse_obj(text).unwrap();
+    let (p, t) = obj::parse_obj(text).unwrap();
     assert_eq!(p, vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)]);
     assert_eq!(t, vec![[3, 2, 1], [2, 3, 0]]);
 }
