@@ -15,6 +15,7 @@
 //! not sRGB (egui prefers `Rgba8Unorm`/`Bgra8Unorm`), they encode sRGB
 //! themselves, so the same frame looks the same on either kind of target.
 
+mod buffers;
 pub mod camera;
 pub mod colliders;
 pub mod geometry;

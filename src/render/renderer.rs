@@ -6,26 +6,15 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use super::buffers::{ClothBuffers, ColliderBuffers, GrowingBuffer, Stale};
 use super::camera::OrbitCamera;
 use super::colliders;
-use super::geometry::{self, BarInstance, MeshLayout, PointInstance, SurfaceVertex};
+use super::geometry::{self, MeshLayout};
 use super::gpu::Gpu;
 use super::pipelines::Pipelines;
 use super::targets::{self, FrameTargets};
 use super::view::{ViewOptions, strain_ramp_linear};
 use crate::sim::{ClothMesh, Simulation};
-
-/// The colliders' triangles, world space, rebuilt when they move.
-#[derive(Debug)]
-struct ColliderBuffers {
-    vertices: GrowingBuffer,
-    indices: GrowingBuffer,
-    index_count: u32,
-    /// The height of a horizontal plane collider facing up: the ground.
-    ground: Option<f32>,
-    scratch_vertices: Vec<geometry::SurfaceVertex>,
-    scratch_indices: Vec<u32>,
-}
 
 /// Direction towards the key light, world space (before normalising): high,
 /// and from the side the scenes' cameras look from, so the shadow falls
@@ -91,181 +80,6 @@ struct FrameUniform {
     centre: [f32; 4],
     style: [f32; 4],
     ramp: [[f32; 4]; 5],
-}
-
-/// A vertex or instance buffer that grows as needed.
-#[derive(Debug)]
-struct GrowingBuffer {
-    label: &'static str,
-    buffer: wgpu::Buffer,
-}
-
-impl GrowingBuffer {
-    fn new(device: &wgpu::Device, label: &'static str, size: u64) -> Self {
-        Self::with_usage(device, label, size, wgpu::BufferUsages::VERTEX)
-    }
-
-    fn with_usage(device: &wgpu::Device, label: &'static str, size: u64, usage: wgpu::BufferUsages) -> Self {
-        Self { label, buffer: vertex_buffer(device, label, size, usage) }
-    }
-
-    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
-        if bytes.is_empty() {
-            return;
-        }
-        if (bytes.len() as u64) > self.buffer.size() {
-            let usage = self.buffer.usage() - wgpu::BufferUsages::COPY_DST;
-            self.buffer = vertex_buffer(device, self.label, (bytes.len() as u64).next_power_of_two(), usage);
-        }
-        queue.write_buffer(&self.buffer, 0, bytes);
-    }
-}
-
-fn vertex_buffer(device: &wgpu::Device, label: &'static str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size: size.max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
-        usage: usage | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
-}
-
-fn init_buffer(device: &wgpu::Device, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt as _;
-    // Never empty: a zero-sized buffer cannot be bound.
-    let padded;
-    let contents = if bytes.is_empty() {
-        padded = [0u8; 16];
-        &padded[..]
-    } else {
-        bytes
-    };
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
-}
-
-/// Which derived data is out of date with respect to the last positions.
-#[derive(Clone, Copy, Debug, Default)]
-struct Stale {
-    surface: bool,
-    strain: bool,
-    bars: bool,
-    points: bool,
-}
-
-impl Stale {
-    fn all() -> Self {
-        Self { surface: true, strain: true, bars: true, points: true }
-    }
-}
-
-/// The GPU buffers and CPU state of the cloth being drawn.
-#[derive(Debug)]
-struct ClothBuffers {
-    mesh: Arc<ClothMesh>,
-    layout: MeshLayout,
-    material: wgpu::Buffer,
-    triangles: wgpu::Buffer,
-    triangle_indices: u32,
-    edges: wgpu::Buffer,
-    edge_indices: u32,
-    surface: GrowingBuffer,
-    strain: GrowingBuffer,
-    bars: GrowingBuffer,
-    bar_count: u32,
-    bars_built_for: (bool, bool),
-    points: GrowingBuffer,
-    point_count: u32,
-    points_built_for: (bool, bool),
-    positions: Vec<Vec3>,
-    fixed: Vec<bool>,
-    highlight: Option<usize>,
-    stale: Stale,
-    // Scratch space reused every frame.
-    normals: Vec<Vec3>,
-    surface_vertices: Vec<SurfaceVertex>,
-    vertex_strain: Vec<f32>,
-    bar_instances: Vec<BarInstance>,
-    point_instances: Vec<PointInstance>,
-}
-
-impl ClothBuffers {
-    fn new(device: &wgpu::Device, mesh: Arc<ClothMesh>) -> Self {
-        let layout = MeshLayout::new(&mesh);
-        let index = wgpu::BufferUsages::INDEX;
-        let n = mesh.particle_count() as u64;
-        let triangles = init_buffer(device, "triangles", bytemuck::cast_slice(mesh.triangles()), index);
-        let edges = init_buffer(device, "wireframe edges", bytemuck::cast_slice(&layout.edges), index);
-        let material = init_buffer(device, "material coordinates", bytemuck::cast_slice(&layout.material), {
-            wgpu::BufferUsages::VERTEX
-        });
-        Self {
-            triangle_indices: (mesh.triangles().len() * 3) as u32,
-            edge_indices: (layout.edges.len() * 2) as u32,
-            triangles,
-            edges,
-            material,
-            surface: GrowingBuffer::new(device, "surface vertices", n * size_of::<SurfaceVertex>() as u64),
-            strain: GrowingBuffer::new(device, "vertex strain", n * 4),
-            bars: GrowingBuffer::new(device, "bar instances", 16),
-            bar_count: 0,
-            bars_built_for: (false, false),
-            points: GrowingBuffer::new(device, "point instances", 16),
-            point_count: 0,
-            points_built_for: (false, false),
-            positions: mesh.positions().to_vec(),
-            fixed: mesh.fixed().to_vec(),
-            highlight: None,
-            stale: Stale::all(),
-            normals: Vec::new(),
-            surface_vertices: Vec::new(),
-            vertex_strain: Vec::new(),
-            bar_instances: Vec::new(),
-            point_instances: Vec::new(),
-            layout,
-            mesh,
-        }
-    }
-
-    /// Rebuilds and uploads what `options` shows and is out of date.
-    fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, options: &ViewOptions) {
-        let has_surface = self.triangle_indices > 0;
-        if options.surface && has_surface && self.stale.surface {
-            geometry::vertex_normals(&self.positions, self.mesh.triangles(), &mut self.normals);
-            geometry::surface_vertices(&self.positions, &self.normals, &mut self.surface_vertices);
-            self.surface.write(device, queue, bytemuck::cast_slice(&self.surface_vertices));
-            self.stale.surface = false;
-        }
-        if options.surface && has_surface && options.strain_colours && self.stale.strain {
-            let mesh = &self.mesh;
-            geometry::vertex_strain(&self.positions, mesh.bars(), |b| mesh.is_edge(b), &mut self.vertex_strain);
-            self.strain.write(device, queue, bytemuck::cast_slice(&self.vertex_strain));
-            self.stale.strain = false;
-        }
-        let bars_key = (options.structural_bars, options.bend_bars);
-        if (bars_key.0 || bars_key.1) && (self.stale.bars || self.bars_built_for != bars_key) {
-            let bars = self.mesh.bars();
-            geometry::bar_instances(&self.positions, bars, bars_key.0, bars_key.1, &mut self.bar_instances);
-            self.bars.write(device, queue, bytemuck::cast_slice(&self.bar_instances));
-            self.bar_count = self.bar_instances.len() as u32;
-            self.bars_built_for = bars_key;
-            self.stale.bars = false;
-        }
-        let points_key = (options.particles, options.pins);
-        if self.stale.points || self.points_built_for != points_key {
-            geometry::point_instances(
-                &self.positions,
-                &self.fixed,
-                options.particles,
-                options.pins,
-                self.highlight,
-                &mut self.point_instances,
-            );
-            self.points.write(device, queue, bytemuck::cast_slice(&self.point_instances));
-            self.point_count = self.point_instances.len() as u32;
-            self.points_built_for = points_key;
-            self.stale.points = false;
-        }
-    }
 }
 
 /// Draws a cloth, its ground and its backdrop into texture views.
