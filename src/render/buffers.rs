@@ -52,12 +52,9 @@ impl GrowingBuffer {
     }
 }
 
-pub(super) fn vertex_buffer(
-    device: &wgpu::Device,
-    label: &'static str,
-    size: u64,
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
+/// An empty buffer of at least `size` bytes (16 at least, a multiple of
+/// wgpu's copy alignment) that can be written to.
+fn vertex_buffer(device: &wgpu::Device, label: &'static str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: size.max(16).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT),
@@ -66,7 +63,8 @@ pub(super) fn vertex_buffer(
     })
 }
 
-pub(super) fn init_buffer(device: &wgpu::Device, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+/// A buffer holding `bytes`.
+fn init_buffer(device: &wgpu::Device, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
     use wgpu::util::DeviceExt as _;
     // Never empty: a zero-sized buffer cannot be bound.
     let padded;
