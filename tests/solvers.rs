@@ -293,7 +293,8 @@ fn a_quad_grid_from_an_obj_file_runs_in_the_lanes() {
 #[test]
 fn both_vector_widths_of_the_avx512_level_give_the_same_bits() {
     // At the AVX-512 level, the kernels the compiler vectorises (the grid's
-    // tile sweeps and seams, the collide phases, self-collision's search)
+    // tile sweeps and seams, the coloured path's collide phase,
+    // self-collision's search)
     // run either their AVX-512 build, free to use 512-bit vectors, or their
     // AVX2 build (256 bits: an Intel CPU's default,
     // `drape::sim::fast::simd::width`). Each lane computes what one `f32`

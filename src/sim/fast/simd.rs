@@ -14,8 +14,9 @@
 //! to the default; [`note`] says so (`drape run` prints it).
 //!
 //! At the AVX-512 level, the kernels the compiler vectorises (`dispatch!`:
-//! the grid's sweeps and collide phase, the coloured path's collide phase,
-//! self-collision's search) take 512-bit vectors or stay at 256 bits
+//! the grid's sweeps, the coloured path's collide phase, self-collision's
+//! search; the grid's particle phases, its collide phase among them, take
+//! their AVX2 build at every width) take 512-bit vectors or stay at 256 bits
 //! ([`VectorWidth`]): 512 on AMD (Zen 4 runs a 512-bit instruction as two
 //! 256-bit halves at full clock, and the 512-bit build of the 256 × 256
 //! grid's step was 4 % quicker there), 256 on Intel, whose cores shut a
