@@ -207,9 +207,10 @@ fn phase(without: Simulation, with: Simulation, levels: &[SimdLevel], most: f64)
         runs.push(run("without", without.clone(), Some(level), Threads::All, base));
         runs.push(run("with", with.clone(), Some(level), Threads::All, base));
     }
-    // And AVX-512 at its other vector width: the width changes the phases'
-    // compiled kernels (the collide phases, self-collision's search), and
-    // which width costs less differs between CPUs.
+    // And AVX-512 at its other vector width: the width changes the compiled
+    // kernels a phase runs beside (the grid's sweeps) or in (the coloured
+    // path's collide phase), and which width costs less differs between
+    // CPUs.
     if levels.contains(&SimdLevel::Avx512) {
         let base = runs.len();
         for (label, sim) in [("without", without), ("with", with)] {

@@ -294,9 +294,8 @@ fn a_quad_grid_from_an_obj_file_runs_in_the_lanes() {
 fn both_vector_widths_of_the_avx512_level_give_the_same_bits() {
     // At the AVX-512 level, the kernels the compiler vectorises (the grid's
     // tile sweeps and seams, the coloured path's collide phase,
-    // self-collision's search)
-    // run either their AVX-512 build, free to use 512-bit vectors, or their
-    // AVX2 build (256 bits: an Intel CPU's default,
+    // self-collision's search) run either their AVX-512 build, free to use
+    // 512-bit vectors, or their AVX2 build (256 bits: an Intel CPU's default,
     // `drape::sim::fast::simd::width`). Each lane computes what one `f32`
     // at a time does, so both give the same bits. Two bundled scenes, so
     // that every such kernel runs: `pile` (a grid of two tiles and the seam
