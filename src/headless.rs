@@ -57,10 +57,25 @@ pub struct RunSummary {
     /// substeps, `(searches, substeps)`: fewer searches where the pairs were
     /// kept between substeps ([`crate::sim::self_contact`]).
     pub self_collision: Option<(u64, u64)>,
+    /// With self-collision: its top speed and the particles it held there
+    /// ([`crate::sim::Simulation::self_collision_top_speed`]).
+    pub top_speed: Option<TopSpeed>,
     /// Kinetic energy of the free particles at the end, joules.
     pub kinetic_energy: f64,
     /// What is absurd about the end state, if anything ([`crate::sim::health`]).
     pub warning: Option<String>,
+}
+
+/// The self-collide phase's top speed over a run: where many particles
+/// are held to it, the cloth moves slower than it would.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TopSpeed {
+    /// r / (h/n) / 4, m/s.
+    pub speed: f32,
+    /// Share of the particles held to it in the last substep, 0..=1.
+    pub held_last: f64,
+    /// Share of particle-substeps held to it over the run, 0..=1.
+    pub held_run: f64,
 }
 
 impl std::fmt::Display for RunSummary {
@@ -98,6 +113,17 @@ impl std::fmt::Display for RunSummary {
         }
         if let Some((searches, substeps)) = self.self_collision {
             writeln!(f, "self-collision       {searches} searches in {substeps} substeps (pairs kept between)")?;
+        }
+        if let Some(top) = self.top_speed {
+            writeln!(
+                f,
+                "top speed            {:.3} m/s (self-collision, r/4 a substep): {:.1} % of the particles held to it \
+                 in the last substep, {:.1} % over the run{}",
+                top.speed,
+                100.0 * top.held_last,
+                100.0 * top.held_run,
+                if top.held_run > 0.01 { "; more substeps raise it" } else { "" }
+            )?;
         }
         write!(f, "kinetic energy       {:.4e} J", self.kinetic_energy)?;
         if let Some(warning) = &self.warning {
@@ -172,6 +198,7 @@ pub fn run(
     let mut history = crate::sim::StrainHistory::default();
     let mut newton = 0u64;
     let searches_before = sim.self_collision_searches();
+    let held_before = sim.self_collision_held_total();
     while done < steps {
         let n = chunk.min(steps - done);
         for _ in 0..n {
@@ -211,6 +238,17 @@ pub fn run(
         self_collision: sim.self_collision_searches().map(|(searches, substeps)| {
             let (s0, n0) = searches_before.unwrap_or((0, 0));
             (searches.saturating_sub(s0), substeps.saturating_sub(n0))
+        }),
+        top_speed: sim.self_collision_top_speed().map(|(speed, held)| {
+            let n = sim.positions().len().max(1) as f64;
+            let substeps = sim.self_collision_searches().map_or(0, |(_, s)| s);
+            let substeps = substeps.saturating_sub(searches_before.map_or(0, |(_, s)| s));
+            let held_run = sim.self_collision_held_total().unwrap_or(0).saturating_sub(held_before.unwrap_or(0));
+            TopSpeed {
+                speed,
+                held_last: held as f64 / n,
+                held_run: if substeps > 0 { held_run as f64 / (substeps as f64 * n) } else { 0.0 },
+            }
         }),
         kinetic_energy: sim.kinetic_energy(),
         warning: crate::sim::health::check(sim, sim.edge_strain().max).map(|a| a.to_string()),

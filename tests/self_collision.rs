@@ -141,6 +141,36 @@ fn a_settled_pile_keeps_its_pairs_and_a_falling_strip_searches_every_substep() {
 }
 
 #[test]
+fn drape_run_reports_the_share_of_a_falling_strip_held_to_the_top_speed() {
+    // The phase cuts each particle's motion to r/4 a substep: with the
+    // pile's r = 1.5 cm and 8 substeps of h = 1/60 s, a top speed of
+    // 0.00375 m · 480 /s = 1.8 m/s. Falling from rest for 30 steps (0.5 s)
+    // the strip would reach 9.8 · 0.5 = 4.9 m/s (a little less with its
+    // damping), so it spends the later part of the fall held at 1.8 m/s:
+    // a large share of its particle-substeps are held. At 32 substeps the
+    // top speed is 7.2 m/s, above any speed the fall reaches: none is.
+    let s = scene::load("pile").unwrap();
+    let mut sim = s.simulation().unwrap();
+    let eight = drape::headless::run(&mut sim, 30, None, |_| {}).unwrap();
+    let top = eight.top_speed.expect("self-collision is on");
+    assert!((top.speed - 1.8).abs() < 1e-3, "{top:?}");
+    assert!(top.held_run > 0.2, "the fall is held to 1.8 m/s for a while: {top:?}");
+    assert!(format!("{eight}").contains("top speed            1.800 m/s"), "{eight}");
+    let mut params = s.params.clone();
+    params.substeps = 32;
+    let mut sim = Simulation::new(s.mesh.clone(), params).unwrap().with_colliders(s.colliders.clone());
+    let many = drape::headless::run(&mut sim, 30, None, |_| {}).unwrap();
+    let top = many.top_speed.expect("self-collision is on");
+    assert!((top.speed - 7.2).abs() < 1e-3, "{top:?}");
+    assert_eq!((top.held_run, top.held_last), (0.0, 0.0), "nothing falls at 7.2 m/s within 0.5 s");
+    // Off, nothing is reported.
+    let mut params = s.params.clone();
+    params.self_collision = false;
+    let mut sim = Simulation::new(s.mesh.clone(), params).unwrap();
+    assert!(drape::headless::run(&mut sim, 1, None, |_| {}).unwrap().top_speed.is_none());
+}
+
+#[test]
 fn a_solver_switch_searches_anew_in_the_new_solvers_row_order() {
     // Each solver gives the self-collide phase its particles in its own row
     // order (the grid its lanes, the reference solver scene order), and a

@@ -101,6 +101,11 @@ pub struct SelfContact {
     /// Searches and substeps since the phase was made (for reports).
     searches: u64,
     substeps: u64,
+    /// Particles whose motion the top speed limited: in the last substep,
+    /// and summed over every substep since the phase was made (for
+    /// reports).
+    held_last: usize,
+    held_total: u64,
     /// Positions, substep-start positions and weights in scene order, for
     /// solvers whose own layout is not scene order.
     pub(crate) x: Vec<Vec3>,
@@ -339,6 +344,14 @@ impl SelfContact {
         (self.searches, self.substeps)
     }
 
+    /// Particles the top speed held back (their motion in the substep cut
+    /// to r/4, module docs): `(in the last substep, summed over every
+    /// substep since the phase was made)`. Where many are, the cloth moves
+    /// slower than it would without self-collision.
+    pub fn held_to_top_speed(&self) -> (usize, u64) {
+        (self.held_last, self.held_total)
+    }
+
     /// The phase on positions `x` (scene order) that started the substep at
     /// `x0`, with inverse masses `w`.
     pub fn apply(&mut self, x: &mut [Vec3], x0: &[Vec3], w: &[f32], step: &SelfContactStep) {
@@ -361,6 +374,7 @@ impl SelfContact {
         let r = step.thickness;
         let n = x.len();
         if n < 2 || r <= 0.0 {
+            self.held_last = 0;
             return;
         }
         debug_assert_eq!(n, self.rest.len(), "one rest position a particle");
@@ -371,7 +385,9 @@ impl SelfContact {
         // (each within 2⁻²⁴ of its value, far less than the 10⁻⁵ margin):
         // most particles are tested without a square root.
         let within = limit * limit * (1.0 - 1e-5);
+        // Returns how many particles it held back.
         let bound = |((x, x0), w): ((&mut [Vec3], &[Vec3]), &[f32])| {
+            let mut held = 0;
             for ((x, &x0), &w) in x.iter_mut().zip(x0).zip(w) {
                 let d = *x - x0;
                 let len2 = d.length_squared();
@@ -379,15 +395,18 @@ impl SelfContact {
                     let len = len2.sqrt();
                     if len > limit {
                         *x = x0 + d * (limit / len);
+                        held += 1;
                     }
                 }
             }
+            held
         };
-        if parallel {
-            x.par_chunks_mut(PER_TASK).zip(x0.par_chunks(PER_TASK)).zip(w.par_chunks(PER_TASK)).for_each(bound);
+        self.held_last = if parallel {
+            x.par_chunks_mut(PER_TASK).zip(x0.par_chunks(PER_TASK)).zip(w.par_chunks(PER_TASK)).map(bound).sum()
         } else {
-            bound(((x, x0), w));
-        }
+            bound(((x, x0), w))
+        };
+        self.held_total += self.held_last as u64;
         self.substeps += 1;
         let x_now: &[Vec3] = x;
         let plan = if self.list.serves(r, n) {

@@ -43,6 +43,34 @@ fn motion_is_limited_to_a_quarter_of_the_thickness_per_substep() {
     assert!((x[0].y + 0.005).abs() < 1e-7, "{x:?}");
 }
 
+#[test]
+fn the_particles_held_to_the_top_speed_are_counted() {
+    // r = 0.02: at most 0.005 m a substep. Particles 1 m apart (no pair),
+    // moved 0.001, 0.004, 0.006 and 0.05 m: the last two are held (cut to
+    // 0.005); a pinned one moved 0.05 is not (it is not the phase's to
+    // move). A second substep with nobody moving holds none, and the run's
+    // total stays 2. The same on the pool: 20 000 particles (past
+    // PARALLEL_PARTICLES), every third moved 0.006: 6 667 held.
+    let step = SelfContactStep { thickness: 0.02, friction: 0.0, parallel: true };
+    let rest: Vec<Vec3> = (0..5).map(|i| Vec3::X * i as f32).collect();
+    let mut sc = SelfContact::new(&rest);
+    let moved = [0.001, 0.004, 0.006, 0.05, 0.05];
+    let mut x: Vec<Vec3> = rest.iter().zip(moved).map(|(p, d)| *p + Vec3::Y * d).collect();
+    sc.apply(&mut x, &rest, &[1.0, 1.0, 1.0, 1.0, 0.0], &step);
+    assert_eq!(sc.held_to_top_speed(), (2, 2));
+    assert!((x[3].y - 0.005).abs() < 1e-7 && (x[4].y - 0.05).abs() < 1e-7, "{x:?}");
+    let still = x.clone();
+    sc.apply(&mut x, &still, &[1.0; 5], &step);
+    assert_eq!(sc.held_to_top_speed(), (0, 2));
+
+    let rest: Vec<Vec3> = (0..20_000).map(|i| Vec3::new((i % 200) as f32, 0.0, (i / 200) as f32)).collect();
+    let mut x: Vec<Vec3> =
+        rest.iter().enumerate().map(|(i, p)| *p + Vec3::Y * if i % 3 == 0 { 0.006 } else { 0.0 }).collect();
+    let mut sc = SelfContact::new(&rest);
+    sc.apply(&mut x, &rest, &vec![1.0; rest.len()], &step);
+    assert_eq!(sc.held_to_top_speed(), (6667, 6667));
+}
+
 /// Two 30 × 30 sheets 1.2 cm apart in x and z, the upper 1.1 cm above
 /// the lower (r = 1 cm: no pair yet), as rest shape and start.
 fn two_sheets() -> (Vec<Vec3>, Vec<Vec3>) {
