@@ -20,7 +20,9 @@
 //! other by at most `r/2` per substep, less than the `r` they are kept
 //! apart, so no pair can cross between two substeps unseen. The limit is a
 //! top speed of `r / (4 h/n)` (2.4 m/s for r = 1 cm at 8 substeps of 1/60 s);
-//! it applies only when self-collision is on. Testing paths instead would
+//! it applies only when self-collision is on, and the particles it holds
+//! each substep are counted ([`SelfContact::held_to_top_speed`]) so that
+//! a cloth slowed by it shows in reports. Testing paths instead would
 //! need triangle–triangle continuous collision, which this phase does not do:
 //! it keeps particles apart, so layers stay apart where the particle spacing
 //! is about the thickness.
