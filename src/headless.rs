@@ -198,7 +198,7 @@ pub fn run(
     let mut history = crate::sim::StrainHistory::default();
     let mut newton = 0u64;
     let searches_before = sim.self_collision_searches();
-    let held_before = sim.self_collision_held_total();
+    let held_before = sim.self_collision_top_speed().map(|(_, (_, total))| total);
     while done < steps {
         let n = chunk.min(steps - done);
         for _ in 0..n {
@@ -239,11 +239,11 @@ pub fn run(
             let (s0, n0) = searches_before.unwrap_or((0, 0));
             (searches.saturating_sub(s0), substeps.saturating_sub(n0))
         }),
-        top_speed: sim.self_collision_top_speed().map(|(speed, held)| {
+        top_speed: sim.self_collision_top_speed().map(|(speed, (held, total))| {
             let n = sim.positions().len().max(1) as f64;
             let substeps = sim.self_collision_searches().map_or(0, |(_, s)| s);
             let substeps = substeps.saturating_sub(searches_before.map_or(0, |(_, s)| s));
-            let held_run = sim.self_collision_held_total().unwrap_or(0).saturating_sub(held_before.unwrap_or(0));
+            let held_run = total.saturating_sub(held_before.unwrap_or(0));
             TopSpeed {
                 speed,
                 held_last: held as f64 / n,

@@ -87,7 +87,7 @@ pub fn panel(ui: &mut Ui, state: &mut PanelState, model: &PanelModel<'_>) -> Vec
             if let Some((searches, substeps)) = model.sim.self_collision_searches() {
                 how.push_str(&format!("; self-collision searched {searches} of {substeps} substeps"));
             }
-            if let Some((speed, held)) = model.sim.self_collision_top_speed() {
+            if let Some((speed, (held, _))) = model.sim.self_collision_top_speed() {
                 let share = 100.0 * held as f32 / model.sim.positions().len().max(1) as f32;
                 how.push_str(&format!("; top speed {speed:.2} m/s, {share:.0} % held to it"));
                 if share >= 1.0 {

@@ -74,6 +74,10 @@ use pair::{Moves, PairSlots, Slots, d_min, pair_corrections};
 
 pub use list::{LIFETIME, MOVERS, SKIN};
 
+/// The most a particle moves in a substep, as a share of r (the module's
+/// no-pass-through limit): a top speed of `TOP_SPEED_SHARE · r / (h/n)`.
+pub const TOP_SPEED_SHARE: f32 = 0.25;
+
 /// Cloths of at least this many particles find their corrections on the
 /// thread pool.
 pub const PARALLEL_PARTICLES: usize = 8192;
@@ -382,7 +386,7 @@ impl SelfContact {
         debug_assert_eq!(n, self.rest.len(), "one rest position a particle");
         let parallel = step.parallel && n >= PARALLEL_PARTICLES && rayon::current_num_threads() > 1;
         // Motion per substep at most r/4.
-        let limit = 0.25 * r;
+        let limit = TOP_SPEED_SHARE * r;
         // |d|² at most `within` has |d| ≤ limit whatever the roundings
         // (each within 2⁻²⁴ of its value, far less than the 10⁻⁵ margin):
         // most particles are tested without a square root.

@@ -434,23 +434,19 @@ impl Simulation {
     }
 
     /// The self-collide phase's top speed and whom it held: `(speed,
-    /// held)` with speed = r / (h/n) / 4 in m/s (r the thickness, h/n the
-    /// substep) and held the particles whose motion it cut to that speed
-    /// in the last substep (`None` while self-collision is off). Where
-    /// many are held the cloth falls or swings slower than it would;
-    /// more substeps raise the speed.
-    pub fn self_collision_top_speed(&self) -> Option<(f32, usize)> {
+    /// (last, total))` with speed = r / (h/n) / 4 in m/s (r the thickness,
+    /// h/n the substep), last the particles whose motion it cut to that
+    /// speed in the last substep and total those summed over every
+    /// substep since the phase was made (with
+    /// [`Self::self_collision_searches`]'s substeps, the share of a run
+    /// held); `None` while self-collision is off. Where many are held the
+    /// cloth falls or swings slower than it would; more substeps raise the
+    /// speed.
+    pub fn self_collision_top_speed(&self) -> Option<(f32, (usize, u64))> {
         let p = &self.params;
         let substep = p.dt / p.substeps.max(1) as f32;
-        self.self_contact.as_ref().map(|phase| (0.25 * p.thickness / substep, phase.held_to_top_speed().0))
-    }
-
-    /// Particle-substeps the self-collide phase has held to its top speed
-    /// since it was made ([`Self::self_collision_top_speed`]; `None` while
-    /// self-collision is off): with [`Self::self_collision_searches`]'s
-    /// substeps, the share of a run held.
-    pub fn self_collision_held_total(&self) -> Option<u64> {
-        self.self_contact.as_ref().map(|phase| phase.held_to_top_speed().1)
+        let speed = crate::sim::self_contact::TOP_SPEED_SHARE * p.thickness / substep;
+        self.self_contact.as_ref().map(|phase| (speed, phase.held_to_top_speed()))
     }
 
     /// What the inextensible projection did in the last substep (`None`
