@@ -28,7 +28,10 @@
 //! range) against the target; on one thread, ns a bar projection,
 //! counted over every bar and over the bars projected (those with an end
 //! that is not fixed: a bar between two fixed ends is skipped by the fast
-//! solver's coloured path).
+//! solver's coloured path); and, where Linux's `/proc/stat` can be read,
+//! the steal time over the comparison (the hypervisor running something
+//! else while a vCPU of ours was ready to run), so that a guest's slow
+//! minutes can be told from the host taking its vCPUs away.
 //!
 //! Beside the medians, for each speed-up over the reference: the ratio of
 //! the reference's quickest window to the run's quickest, and ns a
@@ -129,8 +132,12 @@ fn main() {
             continue;
         }
         let mut comparison = build(&levels);
+        let before = cpu_ticks();
         measure(&mut comparison, &options, &one);
         report(name, &comparison);
+        if let (Some(before), Some(after)) = (before, cpu_ticks()) {
+            report_steal(before, after);
+        }
     }
     simd::force(before);
     simd::force_width(before_width);
@@ -443,6 +450,30 @@ fn cpu_name() -> String {
         (Some(name), Some(family), Some(model)) => format!("{name} (family {family}, model {model})"),
         (Some(name), _, _) => name,
         _ => "this CPU".to_string(),
+    }
+}
+
+/// The CPU time of every vCPU so far and the part of it stolen, in clock
+/// ticks: the `cpu` line of `/proc/stat` (user, nice, system, idle,
+/// iowait, irq, softirq, steal; guest time is already in user). `None`
+/// where it cannot be read (not Linux).
+fn cpu_ticks() -> Option<(u64, u64)> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let line = stat.lines().find(|l| l.split_whitespace().next() == Some("cpu"))?;
+    let fields: Vec<u64> = line.split_whitespace().skip(1).take(8).map(|f| f.parse().ok()).collect::<Option<_>>()?;
+    Some((fields.iter().sum(), *fields.get(7)?))
+}
+
+/// Prints the steal time between two [`cpu_ticks`] readings, as a share
+/// of all the vCPUs' time (idle included) over the comparison.
+fn report_steal(before: (u64, u64), after: (u64, u64)) {
+    let all = after.0.saturating_sub(before.0);
+    let steal = after.1.saturating_sub(before.1);
+    if all > 0 {
+        println!(
+            "\nSteal time over this comparison: {:.1} % of the vCPUs' time ({steal} of {all} ticks, /proc/stat).",
+            100.0 * steal as f64 / all as f64
+        );
     }
 }
 
