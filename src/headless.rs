@@ -70,7 +70,8 @@ pub struct RunSummary {
 /// are held to it, the cloth moves slower than it would.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct TopSpeed {
-    /// r / (h/n) / 4, m/s.
+    /// [`crate::sim::self_contact::TOP_SPEED_SHARE`] · r / (h/n) (r/4 a
+    /// substep), m/s.
     pub speed: f32,
     /// Share of the particles held to it in the last substep, 0..=1.
     pub held_last: f64,

@@ -434,8 +434,9 @@ impl Simulation {
     }
 
     /// The self-collide phase's top speed and whom it held: `(speed,
-    /// (last, total))` with speed = r / (h/n) / 4 in m/s (r the thickness,
-    /// h/n the substep), last the particles whose motion it cut to that
+    /// (last, total))` with speed =
+    /// [`TOP_SPEED_SHARE`](crate::sim::self_contact::TOP_SPEED_SHARE) · r /
+    /// (h/n) in m/s (r/4 a substep; r the thickness, h/n the substep), last the particles whose motion it cut to that
     /// speed in the last substep and total those summed over every
     /// substep since the phase was made (with
     /// [`Self::self_collision_searches`]'s substeps, the share of a run
