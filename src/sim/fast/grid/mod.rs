@@ -71,6 +71,7 @@
 //! [`ContactStep::resolve`]: crate::sim::contact::ContactStep::resolve
 
 mod build;
+mod op_shares;
 mod ops;
 mod phases;
 mod scene;
@@ -189,11 +190,12 @@ struct Tile {
     /// (see [`super::kernel::relax_pair_shared`]), kept in step with
     /// `weight` while every weight is 0 or 1.
     shared: [Vec<Weights<F32x8>>; KINDS],
-    /// Every operation's shares ([`sweep::op_shares`], from `shared`) while
-    /// the layout is in the share form: an operation loads its two where it
-    /// loaded its slots' four. Empty otherwise. Recomputed before the next
-    /// relaxation when `op_shares_stale` (a weight of the tile was written).
-    op_shares: Vec<sweep::OpShares>,
+    /// Every operation's shares ([`op_shares::op_shares`], from `shared`),
+    /// each distinct value once, while the layout is in the share form: an
+    /// operation loads its two where it loaded its slots' four. Empty
+    /// otherwise. Recomputed before the next relaxation when
+    /// `op_shares_stale` (a weight of the tile was written).
+    op_shares: op_shares::ShareTable,
     op_shares_stale: bool,
     /// μ = βλ of every operation's eight bars (compliant bars only).
     multipliers: Vec<F32x8>,
@@ -312,10 +314,9 @@ impl GridLayout {
     fn refresh_op_shares(&mut self) {
         for tile in &mut self.tiles {
             if !self.uniform {
-                tile.op_shares = Vec::new();
+                tile.op_shares = op_shares::ShareTable::default();
             } else if tile.op_shares_stale {
-                tile.op_shares.clear();
-                tile.op_shares.extend(self.ops.iter().map(|&op| sweep::op_shares(&tile.shared[op.kind()], op)));
+                tile.op_shares = op_shares::ShareTable::build(self.ops.iter(), &tile.shared);
             }
             tile.op_shares_stale = false;
         }

@@ -3,13 +3,11 @@
 
 use rayon::prelude::*;
 
+use super::op_shares::{OpShares, ShareTable};
 use super::{Op, Ops, SeamBar, Slot, Tile};
 use crate::sim::fast::graph::{self, Chain, Schedule, Task};
-use crate::sim::fast::kernel::{F32x8, LANES, Real, Weights, excess, relax_pair, relax_pair_shared};
+use crate::sim::fast::kernel::{F32x8, LANES, Real, excess, relax_pair, relax_pair_shared};
 use crate::sim::fast::simd::dispatch;
-
-/// An operation's shares: of end a and of end b, lane by lane ([`op_shares`]).
-pub(super) type OpShares = [F32x8; 2];
 
 dispatch! {
     /// [`sweep_tile_pipelined_body`] at the chosen SIMD level, compiled for
@@ -386,7 +384,7 @@ unsafe fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
     position: &mut [Slot],
     weight: &[F32x8],
     presence: &[F32x8],
-    op_shares: &[OpShares],
+    op_shares: &ShareTable,
     multipliers: &mut [F32x8],
     j: usize,
     op: Op,
@@ -404,7 +402,7 @@ unsafe fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
     let mu = if XPBD { unsafe { multipliers.get_unchecked_mut(j) } } else { &mut dummy };
     if UNIFORM {
         // SAFETY: as above.
-        return unsafe { relax_op_shared::<XPBD, FUSED>(position, *op_shares.get_unchecked(j), mu, op, rest, beta) };
+        return unsafe { relax_op_shared::<XPBD, FUSED>(position, op_shares.get_unchecked(j), mu, op, rest, beta) };
     }
     let at = |column: &[F32x8], i: usize| unsafe { *column.get_unchecked(i) };
     let (mut a, mut wa) = (unsafe { *position.get_unchecked(ia) }, at(weight, ia));
@@ -440,26 +438,8 @@ unsafe fn relax_op<const XPBD: bool, const PADDED: bool, const UNIFORM: bool, co
     }
 }
 
-/// Operation `op`'s shares from its slots' (`shared`, of the operation's
-/// kind), lane by lane ([`Weights::shares`]). A rotated operation's far slot
-/// is rotated down with it, and its lane 7 (whose partner is a seam bar,
-/// projected on its own) gets share 0 at both ends: neither moves there.
-pub(super) fn op_shares(shared: &[Weights<F32x8>], op: Op) -> OpShares {
-    let (ia, ib) = op.slots();
-    let wa = shared[ia];
-    let wb = if op.rotated() {
-        let mut wb = Weights { own: shared[ib].own.rotate_down(), partner: shared[ib].partner.rotate_down() };
-        wb.own.0[LANES - 1] = 0.0;
-        wb.partner.0[LANES - 1] = 0.0;
-        wb
-    } else {
-        shared[ib]
-    };
-    wa.shares(wb)
-}
-
 /// [`relax_op`] in the share form: the operation's precomputed shares
-/// ([`op_shares`]) instead of its ends' weights, two loads where the
+/// ([`super::op_shares::op_shares`]) instead of its ends' weights, two loads where the
 /// slots' shares took four, two multiplies and, rotated, their shuffles.
 /// Returns the violations and each end's share (for the tolerance test,
 /// which only asks whether a bar can move).
