@@ -62,17 +62,27 @@ impl ShareTable {
     pub(super) fn build<'a>(ops: impl IntoIterator<Item = &'a Op>, shared: &[Vec<Weights<F32x8>>]) -> Self {
         let mut index = std::collections::HashMap::<[u32; 2 * LANES], u32>::new();
         let mut values = Vec::new();
+        // The last value looked up: an operation whose value is its
+        // predecessor's (nearly every one) takes its index unhashed.
+        let mut last: Option<([u32; 2 * LANES], u32)> = None;
         let of_op = ops
             .into_iter()
             .map(|&op| {
                 let value = op_shares(&shared[op.kind()], op);
                 let key: [u32; 2 * LANES] = std::array::from_fn(|i| value[i / LANES].0[i % LANES].to_bits());
-                *index.entry(key).or_insert_with(|| {
+                if let Some((last_key, i)) = last
+                    && last_key == key
+                {
+                    return i;
+                }
+                let i = *index.entry(key).or_insert_with(|| {
                     values.push(value);
                     // A tile's operations number far fewer than 2³² (each
                     // names slots below 2³⁰), so neither do their values.
                     (values.len() - 1) as u32
-                })
+                });
+                last = Some((key, i));
+                i
             })
             .collect();
         ShareTable { values, of_op }
