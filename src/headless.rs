@@ -151,9 +151,10 @@ pub enum RunError {
     /// The simulation blew up.
     #[error(transparent)]
     Sim(#[from] SimError),
-    /// The trace could not be written.
+    /// The trace could not be written (the I/O error in the message only,
+    /// not also as its source, so that a chain printed whole says it once).
     #[error("cannot write the trace: {0}")]
-    Trace(#[source] std::io::Error),
+    Trace(std::io::Error),
     /// The export could not be written.
     #[error(transparent)]
     Export(#[from] ExportError),

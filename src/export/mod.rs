@@ -77,14 +77,23 @@ pub enum ExportError {
         /// The binary chunk's size.
         bytes: u64,
     },
-    /// A file could not be written.
-    #[error("cannot write {path}: {source}")]
+    /// A file could not be written. The I/O error is in the message, not
+    /// also a [`std::error::Error::source`], so that a chain printed whole
+    /// (`{:#}`) says it once.
+    #[error("cannot write {path}: {reason}")]
     Io {
         /// The file.
         path: PathBuf,
         /// Why.
-        #[source]
-        source: std::io::Error,
+        reason: std::io::Error,
+    },
+    /// The directory an export goes in could not be made.
+    #[error("cannot create the directory {path} for the export: {reason}")]
+    Directory {
+        /// The directory.
+        path: PathBuf,
+        /// Why.
+        reason: std::io::Error,
     },
     /// The glTF crate refused the document (a bug in drape if it happens).
     #[error("cannot serialise the glTF document: {0}")]
@@ -93,7 +102,7 @@ pub enum ExportError {
 
 impl ExportError {
     pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ExportError + '_ {
-        move |source| ExportError::Io { path: path.to_path_buf(), source }
+        move |reason| ExportError::Io { path: path.to_path_buf(), reason }
     }
 }
 
@@ -135,7 +144,9 @@ pub fn frame_digits(frames: usize) -> usize {
 /// Creates the directory a file goes in, if the path has one.
 pub fn create_parent(path: &Path) -> Result<(), ExportError> {
     match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir).map_err(ExportError::io(dir)),
+        Some(dir) if !dir.as_os_str().is_empty() => {
+            std::fs::create_dir_all(dir).map_err(|reason| ExportError::Directory { path: dir.to_path_buf(), reason })
+        }
         _ => Ok(()),
     }
 }
@@ -236,5 +247,22 @@ mod tests {
         assert_eq!(frame_digits(100_001), 6);
         assert_eq!(frame_path("o/{frame}.obj", 7, frame_digits(11)), PathBuf::from("o/0007.obj"));
         assert_eq!(frame_path("{frame}.obj", 12, 6), PathBuf::from("000012.obj"));
+    }
+
+    #[test]
+    fn a_directory_that_cannot_be_made_is_named_and_its_reason_said_once() {
+        // The directory would be a file's child: no system can make it.
+        let file = std::env::temp_dir().join(format!("drape-export-blocker-{}", std::process::id()));
+        std::fs::write(&file, b"not a directory").unwrap();
+        let e = create_parent(&file.join("sub").join("cloth.glb")).unwrap_err();
+        let _ = std::fs::remove_file(&file);
+        let ExportError::Directory { reason, .. } = &e else { panic!("not a directory error: {e:?}") };
+        let reason = reason.to_string();
+        // The chain as `main` prints it (anyhow's `{:#}`): the I/O error
+        // once. With the error also given as the source it read twice
+        // ("…: Not a directory (os error 20): Not a directory (os error 20)").
+        let chain = format!("{:#}", anyhow::Error::from(e));
+        assert_eq!(chain.matches(&reason).count(), 1, "{chain}");
+        assert!(chain.contains("cannot create the directory") && chain.contains("sub"), "{chain}");
     }
 }

@@ -105,9 +105,10 @@ pub struct SceneError {
 /// The kinds of [`SceneError`].
 #[derive(Debug, thiserror::Error)]
 pub enum SceneErrorKind {
-    /// The file could not be read.
+    /// The file could not be read (the I/O error in the message only, not
+    /// also as its source, so that a chain printed whole says it once).
     #[error("cannot read it: {0}")]
-    Io(#[source] std::io::Error),
+    Io(std::io::Error),
     /// The TOML is malformed or has a key of the wrong type or name; the
     /// message gives the line and column.
     #[error("{0}")]
