@@ -188,7 +188,7 @@ struct RunArgs {
     #[arg(long, value_name = "PATH")]
     export: Option<PathBuf>,
     /// Trace and export every K-th step (and always the first and last).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = 1, value_parser = parse_every)]
     every: u64,
     /// No progress bar.
     #[arg(long, short)]
@@ -225,7 +225,7 @@ struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     frames: Option<u64>,
     /// With --frames: steps between frames.
-    #[arg(long, default_value_t = 1, requires = "frames", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = 1, requires = "frames", value_parser = parse_every)]
     every: u64,
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "800x600", value_parser = parse_size)]
@@ -262,6 +262,16 @@ fn parse_camera(s: &str) -> Result<(f32, f32, Option<f32>), String> {
             Ok((number(y).ok_or_else(bad)?, number(p).ok_or_else(bad)?, Some(d)))
         }
         _ => Err(bad()),
+    }
+}
+
+/// `--every`: a whole number of steps, 1 or more (clap's own range check
+/// would print the range's end, 18446744073709551615).
+fn parse_every(s: &str) -> Result<u64, String> {
+    match s.parse::<u64>() {
+        Ok(0) => Err("0 steps is not allowed: give 1 (every step) or more".into()),
+        Ok(k) => Ok(k),
+        Err(_) => Err(format!("'{s}' is not a whole number of steps: give 1 (every step) or more")),
     }
 }
 
@@ -490,7 +500,12 @@ mod tests {
             Cli::try_parse_from(["drape", "run", "--scene", "flag", "--steps", "5", "--relaxations", "3"]).unwrap();
         let Some(Command::Run(args)) = cli.command else { panic!("not a run command") };
         assert_eq!((args.scene.as_str(), args.steps, args.overrides.relaxations), ("flag", 5, Some(3)));
-        assert!(Cli::try_parse_from(["drape", "run", "--every", "0"]).is_err());
+        let every = Cli::try_parse_from(["drape", "run", "--every", "0"]).map(|_| ()).unwrap_err().to_string();
+        assert!(every.contains("give 1 (every step) or more") && !every.contains("18446744073709551615"), "{every}");
+        let Some(Command::Run(args)) = Cli::try_parse_from(["drape", "run", "--every", "7"]).unwrap().command else {
+            panic!("not a run command")
+        };
+        assert_eq!(args.every, 7);
         assert!(Cli::try_parse_from(["drape", "run", "--solver", "magic"]).is_err());
     }
 }
