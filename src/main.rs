@@ -28,12 +28,16 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Run a scene headless and report strain, energy and speed.
+    // Negative numbers are values, so `--mass -1` reaches the parameters'
+    // check and says what is allowed instead of clap's "unexpected argument".
+    #[command(allow_negative_numbers = true)]
     Run(Box<RunArgs>),
     /// List the bundled scenes.
     Scenes,
     /// Run a scene headless and write one rendered frame as a PNG (needs no
     /// display: a software rasteriser will do).
     #[cfg(feature = "viewer")]
+    #[command(allow_negative_numbers = true)]
     Render(Box<RenderArgs>),
     /// List the graphics adapters wgpu can see and which one drape uses.
     #[cfg(feature = "viewer")]
@@ -44,7 +48,7 @@ enum Command {
 #[derive(Args, Debug, Default)]
 struct SolverOverrides {
     /// Relaxation passes per step (0–100000).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count::<u32>)]
     relaxations: Option<u32>,
     /// Time step h in seconds (1e-6 ≤ h ≤ 1).
     #[arg(long)]
@@ -59,7 +63,7 @@ struct SolverOverrides {
     #[arg(long, value_parser = parse_solver)]
     solver: Option<SolverKind>,
     /// Substeps per step (1–1000); give each at least 2 relaxations.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count::<u32>)]
     substeps: Option<u32>,
     /// XPBD compliance of structural bars, m/N (0 = rigid).
     #[arg(long)]
@@ -96,19 +100,19 @@ struct SolverOverrides {
     #[arg(long)]
     inextensible: bool,
     /// With --inextensible: the most Newton iterations per substep (1–100).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count::<u32>)]
     newton_iterations: Option<u32>,
     /// With --inextensible: the edge strain that ends the iterations (0–1).
     #[arg(long)]
     newton_tolerance: Option<f32>,
     /// With --inextensible: Gauss–Seidel passes over the edges after each
     /// Newton iteration (0–1000).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count::<u32>)]
     newton_smoothing: Option<u32>,
     /// Passes over each coarser level of a grid (the grid taken 2, 4, 8, …
     /// particles apart) after the relaxation: removes the smooth stretch
     /// of a large cloth (0–100; 0 is off; grid meshes only).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_count::<u32>)]
     coarse_passes: Option<u32>,
     /// A fabric preset: cotton, silk, denim, leather, jersey or rubber
     /// (density, stiffness, friction, thickness; gravity kept as an
@@ -172,7 +176,7 @@ struct RunArgs {
     #[arg(long, default_value = "seed")]
     scene: String,
     /// Steps to take.
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = parse_count::<u64>)]
     steps: u64,
     #[command(flatten)]
     overrides: SolverOverrides,
@@ -212,7 +216,7 @@ struct RenderArgs {
     #[arg(long, default_value = "seed")]
     scene: String,
     /// Steps to take before rendering.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = parse_count::<u64>)]
     steps: u64,
     #[command(flatten)]
     overrides: SolverOverrides,
@@ -273,6 +277,14 @@ fn parse_every(s: &str) -> Result<u64, String> {
         Ok(k) => Ok(k),
         Err(_) => Err(format!("'{s}' is not a whole number of steps: give 1 (every step) or more")),
     }
+}
+
+/// A count (passes, substeps, steps): clap's own parser would answer `-3`
+/// with the type's range, 0..=4294967295, which is not the flag's; the
+/// flag's range is in its help and the parameters' check says it for a
+/// number out of it.
+fn parse_count<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    s.parse().map_err(|_| format!("'{s}' is not a whole number (0, 1, 2, …); the flag's range is in --help"))
 }
 
 fn parse_solver(s: &str) -> Result<SolverKind, String> {
@@ -507,5 +519,35 @@ mod tests {
         };
         assert_eq!(args.every, 7);
         assert!(Cli::try_parse_from(["drape", "run", "--solver", "magic"]).is_err());
+    }
+
+    /// A negative value is a value: clap's default reads `-1` as an unknown
+    /// flag ("unexpected argument '-1' found"), which names neither the
+    /// parameter nor what it allows. Parsed, the parameters' own check says
+    /// both.
+    #[test]
+    fn a_negative_value_reaches_the_parameters_check() {
+        for (flag, value, allowed) in [("--mass", -1.0, "1e-9 <= mass"), ("--damping", -0.5, "0 <= damping < 1")] {
+            let text = value.to_string();
+            let cli = Cli::try_parse_from(["drape", "run", flag, text.as_str()]).unwrap();
+            let Some(Command::Run(args)) = cli.command else { panic!("not a run command") };
+            assert_eq!(args.overrides.mass.or(args.overrides.damping), Some(value));
+            let error = format!("{:#}", load_scene("seed", &args.overrides).map(|_| ()).unwrap_err());
+            assert!(error.contains("invalid command-line override") && error.contains(allowed), "{error}");
+        }
+        // An unsigned count still says it wants a number it can take.
+        let relaxations =
+            Cli::try_parse_from(["drape", "run", "--relaxations", "-3"]).map(|_| ()).unwrap_err().to_string();
+        assert!(
+            relaxations.contains("--relaxations")
+                && relaxations.contains("'-3' is not a whole number")
+                && !relaxations.contains("4294967295"),
+            "{relaxations}"
+        );
+        // In range for the type but not the parameter: the check names the range.
+        let cli = Cli::try_parse_from(["drape", "run", "--substeps", "0"]).unwrap();
+        let Some(Command::Run(args)) = cli.command else { panic!("not a run command") };
+        let error = format!("{:#}", load_scene("seed", &args.overrides).map(|_| ()).unwrap_err());
+        assert!(error.contains("substeps = 0 is not allowed"), "{error}");
     }
 }
