@@ -210,7 +210,11 @@ pub struct MaterialTable {
 
 /// `pinned` in `[grid]`: a named pattern or a list of `[column, row]`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "a pin pattern (\"top-row\", \"top-corners\", \"left-column\" or \"none\") or a list of \
+                 [column, row] pairs, e.g. [[0, 0], [19, 0]]"
+)]
 pub enum PinsValue {
     /// `"top-row"`, `"top-corners"`, `"left-column"` or `"none"`.
     Pattern(String),

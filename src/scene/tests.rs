@@ -72,6 +72,11 @@ fn errors_name_the_key_and_the_allowed_range() {
     assert!(e.contains("grid.pinned"), "{e}");
     let e = err("[grid]\ncolumns = 3\nrows = 3\nspacing = 1.0\npinned = [[3, 0]]\n");
     assert!(e.contains("outside the grid"), "{e}");
+    // A flat list of indices (as [mesh] `fixed` and [obj] `pinned` take) is
+    // neither form: the message names both instead of serde's "did not match
+    // any variant of untagged enum PinsValue".
+    let e = err("[grid]\ncolumns = 3\nrows = 3\nspacing = 1.0\npinned = [1]\n");
+    assert!(e.contains("a pin pattern") && e.contains("[column, row] pairs") && !e.contains("untagged"), "{e}");
     let e = err(&format!("[solver]\ninextensible = true\nnewton_iterations = 0\n{GRID}"));
     assert!(e.contains("solver.newton_iterations") && e.contains("from 1 to 100"), "{e}");
     let e = err(&format!("[solver]\nnewton_tolerance = 0.0\n{GRID}"));
