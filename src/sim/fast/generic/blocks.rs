@@ -54,8 +54,9 @@ use crate::sim::mesh::Bar;
 /// Particles a block is sized for (16 bytes each: 256 KiB): the block
 /// count is one per this many. A block that holds pinned particles may
 /// hold more, as the cut shares out the bars a pass projects. Blocks of
-/// 8 192 and 4 096 particles did not move disc-183's step on a 2 MiB L2
-/// (host G) nor on a 512 KB one (host J, Zen 3): `docs/performance.md`.
+/// 8 192 particles did not move disc-183's step on a 2 MiB L2 (host G),
+/// nor blocks of 8 192 or 4 096 on a 512 KB one (host J, Zen 3):
+/// `docs/performance.md`.
 pub(super) const BLOCK_PARTICLES: usize = 16_384;
 
 /// Coloured bars and their multipliers μ = βλ (in colour order), over the
