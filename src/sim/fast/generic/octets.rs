@@ -72,7 +72,10 @@ use super::sweep::{Sweep, relax_one};
 /// stored reads what the one-at-a-time order reads; a colour's last octet
 /// is finished before the next colour starts. Without it (the `avx2` build,
 /// whose 16 registers cannot hold a started octet across the next one's
-/// start) the octets go one at a time, and the core overlaps them.
+/// start) the octets go one at a time, and the core overlaps them; the
+/// AVX2 build pipelined was slower on Intel and on a Zen 3 too (there the
+/// tablecloth's quickest windows 5–18 % longer: `docs/performance.md`, host
+/// J, 2026-12-07).
 ///
 /// The ends are loaded and stored through raw pointers: the indices were
 /// checked once, when the colouring was built (each is below
